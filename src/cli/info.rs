@@ -1,0 +1,51 @@
+//! `manylights info SCENE`: what a scene holds, before rendering it.
+
+use std::path::PathBuf;
+
+use clap::Args;
+
+use crate::lights::Lights;
+use crate::scene::{load_gltf, CameraChoice};
+
+#[derive(Args, Debug)]
+pub struct InfoArgs {
+    /// The scene, .gltf or .glb.
+    pub scene: PathBuf,
+    /// Camera node index (in scene order) or name.
+    #[arg(long)]
+    pub camera: Option<CameraChoice>,
+}
+
+pub fn run(args: &InfoArgs) -> anyhow::Result<()> {
+    let scene = load_gltf(&args.scene, &args.camera.clone().unwrap_or_default())?;
+    let lights = Lights::from_scene(&scene);
+    let two_sided = lights.lights.iter().filter(|l| l.two_sided).count();
+    let (lo, hi) = scene.bounds();
+    println!("scene              {}", args.scene.display());
+    println!("triangles          {}", scene.triangles.len());
+    println!("emissive triangles {} ({} two-sided)", lights.len(), two_sided);
+    println!("total power        {:.6e} W (Φ = π·A·luminance, ×2 two-sided)", lights.total_power());
+    println!("materials          {}", scene.materials.len());
+    println!("bounds             [{:.4}, {:.4}, {:.4}] .. [{:.4}, {:.4}, {:.4}]", lo.x, lo.y, lo.z, hi.x, hi.y, hi.z);
+    match &scene.camera {
+        Some(c) => println!(
+            "camera             '{}' at [{:.3}, {:.3}, {:.3}] looking [{:.3}, {:.3}, {:.3}], yfov {:.2}°, aspect {}",
+            c.name,
+            c.position.x,
+            c.position.y,
+            c.position.z,
+            c.forward.x,
+            c.forward.y,
+            c.forward.z,
+            c.yfov.to_degrees(),
+            c.aspect_ratio.map_or("from --width/--height".into(), |a| format!("{a:.4}"))
+        ),
+        None => println!("camera             none (render frames the bounds from +Z)"),
+    }
+    let s = &scene.stats;
+    println!(
+        "skipped            {} degenerate triangles, {} non-triangle primitives, {} punctual lights",
+        s.degenerate_triangles, s.skipped_primitives, s.ignored_punctual_lights
+    );
+    Ok(())
+}

@@ -1,0 +1,50 @@
+//! The `manylights` command line: one file per subcommand.
+//!
+//! Exit codes: 0 success; 1 a run-time failure (e.g. an output file cannot be written);
+//! 2 bad command-line usage (from clap); 3 an input scene that cannot be read or is invalid.
+
+pub mod gen;
+pub mod info;
+pub mod render;
+
+use clap::{Parser, Subcommand};
+
+pub const EXIT_FAILURE: i32 = 1;
+pub const EXIT_BAD_INPUT: i32 = 3;
+
+#[derive(Parser, Debug)]
+#[command(name = "manylights", version, about = "Direct lighting with many emissive triangles: render and measure")]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Render the direct lighting of a glTF scene to an OpenEXR file.
+    Render(render::RenderArgs),
+    /// Print a scene's triangle and light counts, emitted power, bounds and camera.
+    Info(info::InfoArgs),
+    /// Write one of the built-in scenes as glTF 2.0 (.glb or .gltf).
+    Gen(gen::GenArgs),
+}
+
+/// Runs a parsed command line and returns the process exit code, printing any error.
+pub fn run(cli: Cli) -> i32 {
+    let result = match cli.command {
+        Command::Render(args) => render::run(&args),
+        Command::Info(args) => info::run(&args),
+        Command::Gen(args) => gen::run(&args),
+    };
+    match result {
+        Ok(()) => 0,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            if e.downcast_ref::<crate::scene::LoadError>().is_some() {
+                EXIT_BAD_INPUT
+            } else {
+                EXIT_FAILURE
+            }
+        }
+    }
+}

@@ -1,0 +1,258 @@
+//! `manylights render SCENE -o OUT.exr`: render direct lighting and print one summary.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{bail, Context};
+use clap::Args;
+use serde::Serialize;
+
+use crate::accel::Accel;
+use crate::image::{write_atomically, write_exr, write_png_preview, RgbImage};
+use crate::integrator::{render, Estimator, RenderOptions, RenderStats, Strategy};
+use crate::lights::Lights;
+use crate::scene::{load_gltf, Camera, CameraChoice};
+use crate::select::{LightSelector, SelectorKind};
+
+#[derive(Args, Debug, Clone)]
+pub struct RenderArgs {
+    /// The scene, .gltf or .glb.
+    pub scene: PathBuf,
+    /// Output OpenEXR file (float32 RGB of the per-pixel mean).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Camera samples per pixel.
+    #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
+    pub spp: u32,
+    /// Lights chosen per camera sample (K).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    pub k: u32,
+    /// Points sampled on each chosen light (N).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    pub n: u32,
+    #[arg(long, value_enum, default_value_t = SelectorKind::Power)]
+    pub selector: SelectorKind,
+    #[arg(long, value_enum, default_value_t = Strategy::LightArea)]
+    pub strategy: Strategy,
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Image width in pixels.
+    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    pub width: u32,
+    /// Image height in pixels (default: from the camera's aspect ratio, else square).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    pub height: Option<u32>,
+    /// Worker threads (default: all cores). The image does not depend on it.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    pub threads: Option<u32>,
+    /// Camera node index (in scene order) or name; default the first perspective camera.
+    #[arg(long)]
+    pub camera: Option<CameraChoice>,
+    /// Add the per-pixel variance of the mean as channels variance.R/G/B.
+    #[arg(long)]
+    pub variance: bool,
+    /// Also write a tone-mapped sRGB PNG preview.
+    #[arg(long)]
+    pub png: Option<PathBuf>,
+    /// Exposure of the PNG preview in stops.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    pub exposure: f32,
+    /// Also write this summary as JSON.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+}
+
+/// Seconds spent in each stage.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct Timings {
+    pub load: f64,
+    pub bvh_build: f64,
+    pub light_build: f64,
+    pub render: f64,
+    pub write: f64,
+}
+
+/// What `render` prints, and writes with `--json`.
+#[derive(Clone, Debug, Serialize)]
+pub struct RenderSummary {
+    pub scene: PathBuf,
+    pub output: PathBuf,
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    pub k: u32,
+    pub n: u32,
+    pub selector: SelectorKind,
+    pub strategy: Strategy,
+    pub seed: u64,
+    pub threads: usize,
+    pub triangles: usize,
+    pub lights: usize,
+    pub degenerate_triangles: usize,
+    pub total_power: f64,
+    pub seconds: Timings,
+    pub stats: RenderStats,
+    pub rays_total: u64,
+    pub rays_per_second: f64,
+    pub camera_samples_per_second: f64,
+    pub image_mean: f64,
+}
+
+pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
+    check_output_path(&args.output, "exr")?;
+    if let Some(p) = &args.png {
+        check_output_path(p, "png")?;
+    }
+    if let Some(p) = &args.json {
+        check_output_path(p, "json")?;
+    }
+    let pool = match args.threads {
+        Some(t) => rayon::ThreadPoolBuilder::new().num_threads(t as usize).build(),
+        None => rayon::ThreadPoolBuilder::new().build(),
+    }
+    .context("cannot start the worker threads")?;
+    let summary = pool.install(|| render_scene(args))?;
+    print_summary(&summary);
+    if let Some(path) = &args.json {
+        write_atomically(path, |w| {
+            serde_json::to_writer_pretty(&mut *w, &summary)?;
+            writeln!(w)?;
+            Ok(())
+        })?;
+    }
+    Ok(())
+}
+
+/// Fails early (before a long render) when an output file could never be written.
+fn check_output_path(path: &Path, extension: &str) -> anyhow::Result<()> {
+    if path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref()
+        != Some(extension)
+    {
+        bail!("output {}: expected a .{extension} file name", path.display());
+    }
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    if !dir.is_dir() {
+        bail!("output {}: folder {} does not exist", path.display(), dir.display());
+    }
+    Ok(())
+}
+
+fn render_scene(args: &RenderArgs) -> anyhow::Result<RenderSummary> {
+    let mut seconds = Timings::default();
+    let t = Instant::now();
+    let scene = load_gltf(&args.scene, &args.camera.clone().unwrap_or_default())?;
+    seconds.load = t.elapsed().as_secs_f64();
+
+    let camera = scene.camera.clone().unwrap_or_else(|| {
+        eprintln!("note: {} has no perspective camera; framing its bounds from +Z", args.scene.display());
+        let (lo, hi) = scene.bounds();
+        Camera::framing(lo, hi)
+    });
+    let (width, height) = camera.resolution(args.width, args.height);
+
+    let t = Instant::now();
+    let accel = Accel::build(&scene);
+    seconds.bvh_build = t.elapsed().as_secs_f64();
+
+    let t = Instant::now();
+    let lights = Lights::from_scene(&scene);
+    let selector = LightSelector::new(args.selector, &lights);
+    seconds.light_build = t.elapsed().as_secs_f64();
+    if lights.is_empty() {
+        eprintln!("note: {} has no emissive triangles: only black will be rendered", args.scene.display());
+    }
+
+    let estimator = Estimator {
+        scene: &scene,
+        accel: &accel,
+        lights: &lights,
+        selector: selector.as_ref(),
+        strategy: args.strategy,
+        k: args.k,
+        n: args.n,
+    };
+    let opts = RenderOptions { width, height, spp: args.spp, seed: args.seed };
+    let t = Instant::now();
+    let (film, stats) = render(&estimator, &camera, &opts);
+    seconds.render = t.elapsed().as_secs_f64();
+
+    let t = Instant::now();
+    let mean = RgbImage { width: width as usize, height: height as usize, pixels: film.mean_rgb() };
+    let variance = args.variance.then(|| RgbImage {
+        width: width as usize,
+        height: height as usize,
+        pixels: film.variance_of_mean_rgb(),
+    });
+    write_exr(&args.output, &mean, variance.as_ref())?;
+    if let Some(png) = &args.png {
+        write_png_preview(png, &mean, args.exposure)?;
+    }
+    seconds.write = t.elapsed().as_secs_f64();
+
+    let rays_total = stats.rays.total_rays();
+    Ok(RenderSummary {
+        scene: args.scene.clone(),
+        output: args.output.clone(),
+        width,
+        height,
+        spp: args.spp,
+        k: args.k,
+        n: args.n,
+        selector: args.selector,
+        strategy: args.strategy,
+        seed: args.seed,
+        threads: rayon::current_num_threads(),
+        triangles: scene.triangles.len(),
+        lights: lights.len(),
+        degenerate_triangles: scene.stats.degenerate_triangles,
+        total_power: lights.total_power(),
+        rays_total,
+        rays_per_second: rays_total as f64 / seconds.render,
+        camera_samples_per_second: stats.camera_samples as f64 / seconds.render,
+        image_mean: film.image_mean(),
+        seconds,
+        stats,
+    })
+}
+
+fn print_summary(s: &RenderSummary) {
+    let mega = |x: f64| x / 1e6;
+    println!(
+        "scene     {}: {} triangles ({} degenerate skipped), {} lights, total power {:.4e} W",
+        s.scene.display(),
+        s.triangles,
+        s.degenerate_triangles,
+        s.lights,
+        s.total_power
+    );
+    println!(
+        "image     {}x{}, {} spp, K x N = {} x {}, selector {:?}, strategy {:?}, seed {}, {} threads",
+        s.width, s.height, s.spp, s.k, s.n, s.selector, s.strategy, s.seed, s.threads
+    );
+    let t = &s.seconds;
+    println!(
+        "seconds   load {:.3}  bvh build {:.3}  light build {:.3}  render {:.3}  write {:.3}",
+        t.load, t.bvh_build, t.light_build, t.render, t.write
+    );
+    let r = &s.stats.rays;
+    println!(
+        "rays      {:.3} M (camera {:.3} M, shadow {:.3} M, hemisphere {:.3} M), {:.3} M rays/s",
+        mega(s.rays_total as f64),
+        mega(r.camera_rays as f64),
+        mega(r.shadow_rays as f64),
+        mega(r.hemisphere_rays as f64),
+        mega(s.rays_per_second)
+    );
+    println!(
+        "samples   {:.3} M camera samples, {:.3} M camera samples/s; image mean {:.6}",
+        mega(s.stats.camera_samples as f64),
+        mega(s.camera_samples_per_second),
+        s.image_mean
+    );
+    println!("nan/inf   {} NaN, {} Inf samples (left out of the image)", s.stats.nan_samples, s.stats.inf_samples);
+    println!("wrote     {}", s.output.display());
+}

@@ -1,0 +1,5 @@
+//! Image output: atomic writes, OpenEXR and PNG.
+
+mod io;
+
+pub use io::*;

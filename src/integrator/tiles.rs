@@ -1,0 +1,96 @@
+//! The parallel render loop: rayon over 16×16 tiles. Each pixel draws from its own random
+//! stream derived from (seed, pixel index), so the image is bit-identical for any thread count.
+
+use rayon::prelude::*;
+
+use super::estimator::{Estimator, SampleCounts};
+use crate::film::{classify, Film, PixelStats, SampleClass};
+use crate::sampling::rng::PixelRng;
+use crate::scene::Camera;
+
+const TILE: u32 = 16;
+
+#[derive(Clone, Copy, Debug)]
+pub struct RenderOptions {
+    pub width: u32,
+    pub height: u32,
+    /// Camera samples per pixel, each box-filtered (uniform jitter inside the pixel).
+    pub spp: u32,
+    pub seed: u64,
+}
+
+/// What a render did, summed over all pixels.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct RenderStats {
+    pub camera_samples: u64,
+    pub rays: SampleCounts,
+    /// Samples with a NaN component, left out of the image.
+    pub nan_samples: u64,
+    /// Samples with an infinite component, left out of the image.
+    pub inf_samples: u64,
+}
+
+impl RenderStats {
+    fn add(&mut self, o: &RenderStats) {
+        self.camera_samples += o.camera_samples;
+        self.rays.add(&o.rays);
+        self.nan_samples += o.nan_samples;
+        self.inf_samples += o.inf_samples;
+    }
+}
+
+/// Renders the image on the current rayon pool.
+pub fn render(estimator: &Estimator, camera: &Camera, opts: &RenderOptions) -> (Film, RenderStats) {
+    let (w, h) = (opts.width, opts.height);
+    let tiles_x = w.div_ceil(TILE);
+    let tiles: Vec<(u32, u32)> =
+        (0..h.div_ceil(TILE)).flat_map(|ty| (0..tiles_x).map(move |tx| (tx, ty))).collect();
+    let rendered: Vec<(Vec<PixelStats>, RenderStats)> = tiles
+        .par_iter()
+        .map(|&(tx, ty)| render_tile(estimator, camera, opts, tx, ty))
+        .collect();
+
+    let mut film = Film { width: w, height: h, pixels: vec![PixelStats::default(); (w * h) as usize] };
+    let mut stats = RenderStats::default();
+    for (&(tx, ty), (pixels, tile_stats)) in tiles.iter().zip(&rendered) {
+        stats.add(tile_stats);
+        let mut it = pixels.iter();
+        for y in ty * TILE..((ty + 1) * TILE).min(h) {
+            for x in tx * TILE..((tx + 1) * TILE).min(w) {
+                film.pixels[(y * w + x) as usize] = *it.next().expect("tile holds its pixels");
+            }
+        }
+    }
+    (film, stats)
+}
+
+fn render_tile(
+    estimator: &Estimator,
+    camera: &Camera,
+    opts: &RenderOptions,
+    tx: u32,
+    ty: u32,
+) -> (Vec<PixelStats>, RenderStats) {
+    let (w, h) = (opts.width, opts.height);
+    let mut pixels = Vec::with_capacity((TILE * TILE) as usize);
+    let mut stats = RenderStats::default();
+    for y in ty * TILE..((ty + 1) * TILE).min(h) {
+        for x in tx * TILE..((tx + 1) * TILE).min(w) {
+            let mut rng = PixelRng::new(opts.seed, y as u64 * w as u64 + x as u64);
+            let mut pixel = PixelStats::default();
+            for _ in 0..opts.spp {
+                let [jx, jy] = rng.next_2d();
+                let dir = camera.direction(x as f32 + jx, y as f32 + jy, w, h);
+                let l = estimator.radiance(camera.position, dir, &mut rng, &mut stats.rays);
+                stats.camera_samples += 1;
+                match classify(l) {
+                    SampleClass::Finite => pixel.add(l.as_dvec3()),
+                    SampleClass::Nan => stats.nan_samples += 1,
+                    SampleClass::Infinite => stats.inf_samples += 1,
+                }
+            }
+            pixels.push(pixel);
+        }
+    }
+    (pixels, stats)
+}

@@ -1,0 +1,5 @@
+//! Random numbers and the warps that turn them into points and directions.
+
+pub mod alias;
+pub mod rng;
+pub mod warp;

@@ -1,0 +1,135 @@
+//! Warps from [0,1)² to triangles and hemispheres, each with the PDF of what it produces.
+
+use glam::Vec3;
+use std::f32::consts::{FRAC_1_PI, PI};
+
+/// Barycentric weights (b1, b2) of vertices 1 and 2, uniform over a triangle (density 1/A in
+/// area measure), by the square-root map (b1, b2) = (√u1·(1 − u2), √u1·u2).
+#[inline]
+pub fn uniform_triangle(u: [f32; 2]) -> (f32, f32) {
+    let s = u[0].sqrt();
+    (s * (1.0 - u[1]), s * u[1])
+}
+
+/// Direction uniform on the hemisphere z > 0 in local coordinates; pdf 1/(2π) per steradian.
+#[inline]
+pub fn uniform_hemisphere(u: [f32; 2]) -> Vec3 {
+    let z = 1.0 - u[0];
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = 2.0 * PI * u[1];
+    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+pub const UNIFORM_HEMISPHERE_PDF: f32 = 0.5 * FRAC_1_PI;
+
+/// Cosine-weighted direction on the hemisphere z > 0 (Malley's method over Shirley's
+/// concentric disk map); pdf cosθ/π per steradian.
+#[inline]
+pub fn cosine_hemisphere(u: [f32; 2]) -> Vec3 {
+    let (x, y) = concentric_disk(u);
+    Vec3::new(x, y, (1.0 - x * x - y * y).max(0.0).sqrt())
+}
+
+#[inline]
+pub fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
+    cos_theta.max(0.0) * FRAC_1_PI
+}
+
+/// Shirley & Chiu's concentric map from the square to the unit disk (area preserving).
+#[inline]
+fn concentric_disk(u: [f32; 2]) -> (f32, f32) {
+    let a = 2.0 * u[0] - 1.0;
+    let b = 2.0 * u[1] - 1.0;
+    if a == 0.0 && b == 0.0 {
+        return (0.0, 0.0);
+    }
+    let (r, theta) = if a.abs() > b.abs() {
+        (a, 0.25 * PI * (b / a))
+    } else {
+        (b, 0.5 * PI - 0.25 * PI * (a / b))
+    };
+    (r * theta.cos(), r * theta.sin())
+}
+
+/// An orthonormal frame around a unit vector n (Duff et al. 2017, branchless).
+#[derive(Clone, Copy, Debug)]
+pub struct Frame {
+    pub t: Vec3,
+    pub b: Vec3,
+    pub n: Vec3,
+}
+
+impl Frame {
+    #[inline]
+    pub fn new(n: Vec3) -> Frame {
+        let sign = 1f32.copysign(n.z);
+        let a = -1.0 / (sign + n.z);
+        let b = n.x * n.y * a;
+        Frame {
+            t: Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
+            b: Vec3::new(b, sign + n.y * n.y * a, -n.y),
+            n,
+        }
+    }
+
+    #[inline]
+    pub fn to_world(&self, v: Vec3) -> Vec3 {
+        self.t * v.x + self.b * v.y + self.n * v.z
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::rng::PixelRng;
+
+    /// Mean of f over `n` warped samples, with its standard error.
+    fn mean_and_sigma(n: usize, mut f: impl FnMut([f32; 2]) -> f64) -> (f64, f64) {
+        let mut rng = PixelRng::new(42, 7);
+        let (mut s, mut s2) = (0.0, 0.0);
+        for _ in 0..n {
+            let y = f(rng.next_2d());
+            s += y;
+            s2 += y * y;
+        }
+        let mean = s / n as f64;
+        (mean, ((s2 / n as f64 - mean * mean) / n as f64).sqrt())
+    }
+
+    #[test]
+    fn hemisphere_warps_match_their_pdfs() {
+        // E[cosθ] = 1/2 under the uniform pdf, 2/3 under the cosine pdf.
+        let (m, s) = mean_and_sigma(200_000, |u| uniform_hemisphere(u).z as f64);
+        assert!((m - 0.5).abs() < 5.0 * s, "{m} ± {s}");
+        let (m, s) = mean_and_sigma(200_000, |u| cosine_hemisphere(u).z as f64);
+        assert!((m - 2.0 / 3.0).abs() < 5.0 * s, "{m} ± {s}");
+        // The estimator ∫ cos dω = π through either pdf.
+        let (m, s) = mean_and_sigma(200_000, |u| {
+            (uniform_hemisphere(u).z / UNIFORM_HEMISPHERE_PDF) as f64
+        });
+        assert!((m - std::f64::consts::PI).abs() < 5.0 * s);
+    }
+
+    #[test]
+    fn triangle_warp_is_uniform() {
+        // Over the triangle (0,0),(1,0),(0,1) with b = (b1, b2): E[b1] = E[b2] = 1/3,
+        // and the share with b1 + b2 < 1/2 (a sub-triangle of 1/4 the area) is 1/4.
+        let (m, s) = mean_and_sigma(200_000, |u| uniform_triangle(u).0 as f64);
+        assert!((m - 1.0 / 3.0).abs() < 5.0 * s);
+        let (m, s) = mean_and_sigma(200_000, |u| {
+            let (a, b) = uniform_triangle(u);
+            assert!(a >= 0.0 && b >= 0.0 && a + b <= 1.0);
+            ((a + b) < 0.5) as u8 as f64
+        });
+        assert!((m - 0.25).abs() < 5.0 * s);
+    }
+
+    #[test]
+    fn frame_is_orthonormal() {
+        for n in [Vec3::Z, -Vec3::Z, Vec3::X, Vec3::new(0.3, -0.5, 0.81).normalize()] {
+            let f = Frame::new(n);
+            assert!((f.t.dot(f.b)).abs() < 1e-6 && (f.t.dot(n)).abs() < 1e-6);
+            assert!((f.t.cross(f.b) - n).length() < 1e-5);
+        }
+    }
+}

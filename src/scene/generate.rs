@@ -1,0 +1,699 @@
+//! Procedural test scenes built with [`GltfBuilder`].
+//!
+//! * [`cornell`]: a Cornell-like box lit by one small one-sided area light.
+//! * [`many_lights`]: a night town with thousands of small emissive quads
+//!   (windows, street lamps, floating neon strips) hidden behind buildings,
+//!   for benchmarking light selection.
+
+use std::collections::BTreeMap;
+
+use glam::{Mat4, Quat, Vec3};
+use rand_core::{Rng, SeedableRng};
+use rand_pcg::Pcg32;
+
+use super::gltf_write::{look_at_rotation, GltfBuilder, Material, NodeTransform};
+
+/// Builds a 2 m Cornell-like box: floor at y = 0, ceiling at y = 2, walls at
+/// x = ±1 (red left, green right), back wall at z = −1, open towards +z where
+/// the camera stands, two rotated boxes, and one downward-facing emissive
+/// quad just below the ceiling.
+pub fn cornell() -> GltfBuilder {
+    let mut b = GltfBuilder::new();
+    let white = b.add_material(matte("white", [0.73; 3]));
+    let red = b.add_material(matte("red", [0.63, 0.065, 0.05]));
+    let green = b.add_material(matte("green", [0.14, 0.45, 0.091]));
+    let glossy = b.add_material(Material {
+        roughness: 0.3,
+        ..matte("glossy white", [0.73; 3])
+    });
+    let lamp = b.add_material(Material {
+        emissive: [1.0, 0.85, 0.6],
+        emissive_strength: 15.0,
+        ..matte("ceiling light", [0.78; 3])
+    });
+
+    let mut walls = QuadMesh::default();
+    walls.quad(Vec3::ZERO, Vec3::Z, Vec3::X); // floor, faces +y
+    walls.quad(Vec3::new(0.0, 2.0, 0.0), Vec3::X, Vec3::Z); // ceiling, faces −y
+    walls.quad(Vec3::new(0.0, 1.0, -1.0), Vec3::X, Vec3::Y); // back, faces +z
+    add_object(
+        &mut b,
+        "white walls",
+        &walls,
+        white,
+        NodeTransform::Identity,
+    );
+    let mut left = QuadMesh::default();
+    left.quad(Vec3::new(-1.0, 1.0, 0.0), Vec3::Y, Vec3::Z); // faces +x
+    add_object(&mut b, "red wall", &left, red, NodeTransform::Identity);
+    let mut right = QuadMesh::default();
+    right.quad(Vec3::new(1.0, 1.0, 0.0), Vec3::Z, Vec3::Y); // faces −x
+    add_object(&mut b, "green wall", &right, green, NodeTransform::Identity);
+
+    let boxes = b.add_node("boxes", None, None, NodeTransform::Identity);
+    let short = cornell_box(&mut b, "short box", white, [0.35, 0.0, 0.3], -0.3, 0.6);
+    let tall = cornell_box(&mut b, "tall box", glossy, [-0.35, 0.0, -0.35], 0.3, 1.2);
+    b.add_child(boxes, short);
+    b.add_child(boxes, tall);
+
+    // The light is modelled at the origin and lifted by a matrix transform.
+    let mut light = QuadMesh::default();
+    light.quad(Vec3::ZERO, Vec3::X * 0.25, Vec3::Z * 0.2); // 0.5 × 0.4 m, faces −y
+    let lift = Mat4::from_translation(Vec3::new(0.0, 1.999, 0.0));
+    add_object(
+        &mut b,
+        "ceiling light",
+        &light,
+        lamp,
+        NodeTransform::Matrix(lift.to_cols_array()),
+    );
+
+    add_camera(&mut b, [0.0, 1.0, 3.4], [0.0, 1.0, 0.0], 40.0);
+    b
+}
+
+/// Builds a night town of about `target_lights` emissive triangles (two per
+/// quad) spread over lit windows, street lamps and two-sided neon strips,
+/// with radiances spanning five decades. The same `seed` always gives the
+/// same scene.
+pub fn many_lights(seed: u64, target_lights: usize) -> GltfBuilder {
+    let mut rng = Pcg32::seed_from_u64(seed);
+    let buildings = town_buildings(&mut rng);
+    let mut b = GltfBuilder::new();
+    add_town_geometry(&mut b, &buildings, &mut rng);
+
+    let quads = target_lights.div_ceil(2);
+    let mut lights = LightGroups::default();
+    let windows = lights.add_windows(&mut rng, &buildings, quads / 2);
+    let lamps = lights.add_lamps(&mut rng, quads * 10 / 100);
+    lights.add_neon(&mut rng, quads - windows - lamps);
+    lights.add_to(&mut b);
+
+    add_camera(&mut b, [0.8, 8.0, 29.5], [-1.0, 4.0, 0.0], 60.0);
+    b
+}
+
+/// A one-sided rough dielectric of the given colour.
+fn matte(name: &str, base_color: [f32; 3]) -> Material {
+    Material {
+        name: name.to_owned(),
+        base_color,
+        roughness: 0.8,
+        ..Material::default()
+    }
+}
+
+/// Adds a closed box standing on the floor at `position`, rotated by
+/// `angle` radians about +y, 0.6 m wide and `height` tall, as a scaled
+/// unit cube; returns its node.
+fn cornell_box(
+    b: &mut GltfBuilder,
+    name: &str,
+    material: usize,
+    position: [f32; 3],
+    angle: f32,
+    height: f32,
+) -> usize {
+    let mut cube = QuadMesh::default();
+    cube.cuboid(Vec3::new(-0.5, 0.0, -0.5), Vec3::new(0.5, 1.0, 0.5));
+    let transform = NodeTransform::Trs {
+        translation: position,
+        rotation: Quat::from_rotation_y(angle).to_array(),
+        scale: [0.6, height, 0.6],
+    };
+    add_object(b, name, &cube, material, transform)
+}
+
+/// Adds a mesh with normals and indices plus a node showing it; returns the node.
+fn add_object(
+    b: &mut GltfBuilder,
+    name: &str,
+    mesh: &QuadMesh,
+    material: usize,
+    transform: NodeTransform,
+) -> usize {
+    let m = b.add_mesh(
+        name,
+        &mesh.positions,
+        Some(&mesh.normals),
+        Some(&mesh.indices),
+        material,
+    );
+    b.add_node(name, Some(m), None, transform)
+}
+
+/// Adds a square-aspect perspective camera at `eye` looking at `target`.
+fn add_camera(b: &mut GltfBuilder, eye: [f32; 3], target: [f32; 3], yfov_degrees: f32) {
+    let camera = b.add_perspective_camera("camera", yfov_degrees.to_radians(), Some(1.0), 0.01);
+    let transform = NodeTransform::Trs {
+        translation: eye,
+        rotation: look_at_rotation(eye, target, [0.0, 1.0, 0.0]),
+        scale: [1.0; 3],
+    };
+    b.add_node("camera", None, Some(camera), transform);
+}
+
+/// Indexed quads with flat per-vertex normals.
+#[derive(Default)]
+struct QuadMesh {
+    positions: Vec<[f32; 3]>,
+    normals: Vec<[f32; 3]>,
+    indices: Vec<u32>,
+}
+
+impl QuadMesh {
+    /// Adds the quad centred at `c` with half-edge vectors `u` and `v`; its
+    /// front face (counter-clockwise winding) faces along `u × v`.
+    fn quad(&mut self, c: Vec3, u: Vec3, v: Vec3) {
+        let base = u32::try_from(self.positions.len()).expect("mesh too large");
+        let n = u.cross(v).normalize().to_array();
+        for p in [c - u - v, c + u - v, c + u + v, c - u + v] {
+            self.positions.push(p.to_array());
+            self.normals.push(n);
+        }
+        self.indices.extend([0, 1, 2, 0, 2, 3].map(|k| base + k));
+    }
+
+    /// Adds an axis-aligned closed box with outward-facing quads.
+    fn cuboid(&mut self, min: Vec3, max: Vec3) {
+        let centre = (min + max) * 0.5;
+        let half = (max - min) * 0.5;
+        let axis = |k: usize| Vec3::AXES[k] * half[k];
+        for a in 0..3 {
+            // e_b × e_c = e_a for the cyclic successors b and c of a.
+            let (u, v) = (axis((a + 1) % 3), axis((a + 2) % 3));
+            self.quad(centre + axis(a), u, v);
+            self.quad(centre - axis(a), v, u);
+        }
+    }
+
+    /// The triangles as a non-indexed vertex list.
+    fn triangle_soup(&self) -> Vec<[f32; 3]> {
+        self.indices
+            .iter()
+            .map(|&i| self.positions[i as usize])
+            .collect()
+    }
+}
+
+/// Uniform `f32` in [0, 1) from the top 24 bits of a `u32`.
+fn unit(rng: &mut Pcg32) -> f32 {
+    (rng.next_u32() >> 8) as f32 * (1.0 / 16_777_216.0)
+}
+
+/// Uniform `f32` in [lo, hi).
+fn uniform(rng: &mut Pcg32, lo: f32, hi: f32) -> f32 {
+    lo + (hi - lo) * unit(rng)
+}
+
+/// Uniform integer in 0..n (n > 0), by multiply-shift.
+fn below(rng: &mut Pcg32, n: usize) -> usize {
+    ((u64::from(rng.next_u32()) * n as u64) >> 32) as usize
+}
+
+/// Index into `weights` chosen with probability proportional to its weight.
+fn weighted(rng: &mut Pcg32, weights: &[u32]) -> usize {
+    let mut ticket = below(rng, weights.iter().sum::<u32>() as usize) as u32;
+    for (i, &w) in weights.iter().enumerate() {
+        if ticket < w {
+            return i;
+        }
+        ticket -= w;
+    }
+    unreachable!("ticket below the weight sum")
+}
+
+/// The town is a `CELLS × CELLS` grid of `PITCH`-metre cells centred on the
+/// origin, one building per cell; streets run along the cell borders.
+const CELLS: usize = 6;
+const PITCH: f32 = 10.0;
+const HALF_TOWN: f32 = CELLS as f32 * PITCH * 0.5;
+/// Minimum distance from a street's centre line to any building.
+const STREET_HALF_WIDTH: f32 = 2.0;
+/// Storey height and horizontal window spacing on facades.
+const STOREY: f32 = 2.5;
+const WINDOW_PITCH: f32 = 0.9;
+/// Window offset from its facade, against z-fighting and self-occlusion.
+const WINDOW_OFFSET: f32 = 0.01;
+
+/// Number of emission levels.
+const LEVELS: usize = 24;
+
+/// The emissive strength of `level`, log-spaced from 1e-2 to 1e3.
+fn level_strength(level: usize) -> f32 {
+    10f64.powf(-2.0 + 5.0 * level as f64 / (LEVELS - 1) as f64) as f32
+}
+
+/// Emission colours (maximum component 1) and their names.
+const COLOURS: [(&str, [f32; 3]); 5] = [
+    ("warm white", [1.0, 0.85, 0.65]),
+    ("cool white", [0.8, 0.9, 1.0]),
+    ("orange", [1.0, 0.55, 0.15]),
+    ("cyan", [0.1, 0.9, 1.0]),
+    ("magenta", [1.0, 0.15, 0.85]),
+];
+const WARM: usize = 0;
+const COOL: usize = 1;
+const ORANGE: usize = 2;
+const CYAN: usize = 3;
+const MAGENTA: usize = 4;
+
+/// Column-major frame of the neon strips: a quarter turn about +y (which maps
+/// the street grid onto itself) and a lift of 8 m.
+const NEON_FRAME: [f32; 16] = [
+    0.0, 0.0, -1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 8.0, 0.0, 1.0,
+];
+
+/// An axis-aligned building standing on the ground.
+struct Building {
+    min: Vec3,
+    max: Vec3,
+}
+
+/// The centre coordinate of cell `i` along either axis.
+fn cell_centre(i: usize) -> f32 {
+    (i as f32 + 0.5) * PITCH - HALF_TOWN
+}
+
+/// The coordinate of the street line between cells `k` and `k + 1`.
+fn street_line(k: usize) -> f32 {
+    (k + 1) as f32 * PITCH - HALF_TOWN
+}
+
+/// One building per cell, taller towards the town centre, always leaving
+/// `STREET_HALF_WIDTH` to the surrounding street lines.
+fn town_buildings(rng: &mut Pcg32) -> Vec<Building> {
+    let mut out = Vec::with_capacity(CELLS * CELLS);
+    for i in 0..CELLS {
+        for k in 0..CELLS {
+            let (cx, cz) = (cell_centre(i), cell_centre(k));
+            let half = Vec3::new(uniform(rng, 2.25, 3.0), 0.0, uniform(rng, 2.25, 3.0));
+            let slack = Vec3::splat(PITCH * 0.5 - STREET_HALF_WIDTH) - half;
+            let shift = Vec3::new(uniform(rng, -1.0, 1.0), 0.0, uniform(rng, -1.0, 1.0)) * slack;
+            let centrality = 1.0 - cx.abs().max(cz.abs()) / (HALF_TOWN - PITCH * 0.5);
+            let height = 6.0 + uniform(rng, 0.0, 10.0) + 30.0 * centrality * unit(rng);
+            let foot = Vec3::new(cx, 0.0, cz) + shift;
+            out.push(Building {
+                min: foot - half,
+                max: foot + half + Vec3::Y * height,
+            });
+        }
+    }
+    out
+}
+
+/// Adds the ground plane and the buildings (in two shades of grey).
+fn add_town_geometry(b: &mut GltfBuilder, buildings: &[Building], rng: &mut Pcg32) {
+    let asphalt = b.add_material(matte("asphalt", [0.08; 3]));
+    let mut ground = QuadMesh::default();
+    ground.quad(Vec3::ZERO, Vec3::Z * HALF_TOWN, Vec3::X * HALF_TOWN);
+    add_object(b, "ground", &ground, asphalt, NodeTransform::Identity);
+    let mut blocks = [QuadMesh::default(), QuadMesh::default()];
+    for building in buildings {
+        blocks[below(rng, 2)].cuboid(building.min, building.max);
+    }
+    for (shade, (mesh, grey)) in blocks.iter().zip([0.35, 0.5]).enumerate() {
+        let name = format!("buildings {shade}");
+        let concrete = b.add_material(matte(&name, [grey; 3]));
+        add_object(b, &name, mesh, concrete, NodeTransform::Identity);
+    }
+}
+
+/// A place for one window: its centre (already off the facade) and the
+/// horizontal facade tangent `t`, chosen so that `y × t` points outward.
+struct WindowSlot {
+    centre: Vec3,
+    tangent: Vec3,
+}
+
+/// Every window slot of every facade, storey by storey.
+fn window_slots(buildings: &[Building]) -> Vec<WindowSlot> {
+    let mut slots = Vec::new();
+    for bld in buildings {
+        let centre = (bld.min + bld.max) * 0.5;
+        let half = (bld.max - bld.min) * 0.5;
+        for normal in [Vec3::X, Vec3::NEG_X, Vec3::Z, Vec3::NEG_Z] {
+            let tangent = normal.cross(Vec3::Y);
+            let width = 2.0 * tangent.abs().dot(half);
+            let columns = ((width - 0.6) / WINDOW_PITCH).floor().max(0.0) as usize;
+            let facade = centre + normal * (normal.abs().dot(half) + WINDOW_OFFSET);
+            let mut y = 1.5;
+            while y + 0.5 + 0.3 <= bld.max.y {
+                for c in 0..columns {
+                    let along = (c as f32 - (columns as f32 - 1.0) * 0.5) * WINDOW_PITCH;
+                    let centre = Vec3::new(facade.x, y, facade.z) + tangent * along;
+                    slots.push(WindowSlot { centre, tangent });
+                }
+                y += STOREY;
+            }
+        }
+    }
+    slots
+}
+
+/// Emissive quads grouped by (two-sided, colour, level); each group becomes
+/// one material and one mesh.
+#[derive(Default)]
+struct LightGroups {
+    groups: BTreeMap<(bool, usize, usize), QuadMesh>,
+}
+
+impl LightGroups {
+    /// Lights up to `count` randomly chosen window slots; returns how many.
+    fn add_windows(&mut self, rng: &mut Pcg32, buildings: &[Building], count: usize) -> usize {
+        let mut slots = window_slots(buildings);
+        let count = count.min(slots.len());
+        for i in 0..count {
+            let j = i + below(rng, slots.len() - i);
+            slots.swap(i, j);
+            let s = &slots[i];
+            let colour = [WARM, COOL, ORANGE][weighted(rng, &[65, 20, 15])];
+            let level = below(rng, 18);
+            let u = Vec3::Y * uniform(rng, 0.25, 0.5);
+            let v = s.tangent * uniform(rng, 0.15, 0.35);
+            self.group(false, colour, level).quad(s.centre, u, v);
+        }
+        count
+    }
+
+    /// Adds `count` downward-facing lamp quads about 4 m above the streets;
+    /// returns `count`.
+    fn add_lamps(&mut self, rng: &mut Pcg32, count: usize) -> usize {
+        for _ in 0..count {
+            let street = random_street(rng);
+            let side = if below(rng, 2) == 0 { -1.0 } else { 1.0 };
+            let centre = street.origin
+                + street.along * uniform(rng, -29.0, 29.0)
+                + street.across * (side * STREET_HALF_WIDTH * 0.6)
+                + Vec3::Y * uniform(rng, 3.8, 4.2);
+            let half = uniform(rng, 0.15, 0.25);
+            let colour = [ORANGE, COOL][below(rng, 2)];
+            let level = 12 + below(rng, LEVELS - 12);
+            self.group(false, colour, level)
+                .quad(centre, Vec3::X * half, Vec3::Z * half);
+        }
+        count
+    }
+
+    /// Adds `count` two-sided quads as short neon ribbons floating above the
+    /// streets, stored in the [`NEON_FRAME`] coordinate system.
+    fn add_neon(&mut self, rng: &mut Pcg32, count: usize) {
+        let to_local = Mat4::from_cols_array(&NEON_FRAME).inverse();
+        let mut left = count;
+        while left > 0 {
+            let pieces = (1 + below(rng, 5)).min(left);
+            left -= pieces;
+            let Street {
+                origin,
+                along,
+                across,
+            } = random_street(rng);
+            let mut at = origin
+                + along * uniform(rng, -27.0, 22.0)
+                + across * uniform(rng, -0.8, 0.8)
+                + Vec3::Y * uniform(rng, 5.0, 20.0);
+            let roll = uniform(rng, -0.6, 0.6);
+            let up = Vec3::Y * roll.cos() + across * roll.sin();
+            let colour = [CYAN, MAGENTA][below(rng, 2)];
+            let level = below(rng, LEVELS);
+            for _ in 0..pieces {
+                let length = uniform(rng, 0.1, 0.5);
+                let u = to_local.transform_vector3(up * uniform(rng, 0.1, 0.3));
+                let v = to_local.transform_vector3(along * length);
+                let centre = to_local.transform_point3(at + along * length);
+                self.group(true, colour, level).quad(centre, u, v);
+                at += along * (2.0 * length + 0.05);
+            }
+        }
+    }
+
+    /// The quads of one (two-sided, colour, level) group.
+    fn group(&mut self, two_sided: bool, colour: usize, level: usize) -> &mut QuadMesh {
+        self.groups.entry((two_sided, colour, level)).or_default()
+    }
+
+    /// Adds one material, mesh and node per group. Neon meshes are written
+    /// without indices under a parent node carrying [`NEON_FRAME`].
+    fn add_to(&self, b: &mut GltfBuilder) {
+        let neon = b.add_node("neon", None, None, NodeTransform::Matrix(NEON_FRAME));
+        for (&(two_sided, colour, level), mesh) in &self.groups {
+            let (colour_name, emissive) = COLOURS[colour];
+            let kind = if two_sided { "neon" } else { "lit" };
+            let name = format!("{kind} {colour_name} L{level:02}");
+            let material = b.add_material(Material {
+                name: name.clone(),
+                base_color: [0.1; 3],
+                roughness: 0.5,
+                emissive,
+                emissive_strength: level_strength(level),
+                double_sided: two_sided,
+                ..Material::default()
+            });
+            let m = if two_sided {
+                b.add_mesh(&name, &mesh.triangle_soup(), None, None, material)
+            } else {
+                b.add_mesh(&name, &mesh.positions, None, Some(&mesh.indices), material)
+            };
+            let node = b.add_node(&name, Some(m), None, NodeTransform::Identity);
+            if two_sided {
+                b.add_child(neon, node);
+            }
+        }
+    }
+}
+
+/// A street centre line: `origin + t * along`, with `across` the horizontal
+/// unit vector perpendicular to it.
+struct Street {
+    origin: Vec3,
+    along: Vec3,
+    across: Vec3,
+}
+
+/// One of the streets between the building rows, chosen at random.
+fn random_street(rng: &mut Pcg32) -> Street {
+    let offset = street_line(below(rng, CELLS - 1));
+    let (along, across) = if below(rng, 2) == 0 {
+        (Vec3::Z, Vec3::X)
+    } else {
+        (Vec3::X, Vec3::Z)
+    };
+    Street {
+        origin: across * offset,
+        along,
+        across,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::gltf_write::tests::{assert_matches, round_trip};
+    use super::*;
+
+    /// One triangle of a loaded scene in world space.
+    struct Triangle {
+        material: usize,
+        mesh_name: String,
+        corners: [Vec3; 3],
+        normals: Option<[Vec3; 3]>,
+    }
+
+    impl Triangle {
+        /// The unit geometric normal `(v1 − v0) × (v2 − v0)`.
+        fn geometric_normal(&self) -> Vec3 {
+            let [a, b, c] = self.corners;
+            (b - a).cross(c - a).normalize()
+        }
+
+        fn centroid(&self) -> Vec3 {
+            (self.corners[0] + self.corners[1] + self.corners[2]) / 3.0
+        }
+    }
+
+    /// All triangles of the default scene, transformed to world space.
+    fn world_triangles(doc: &gltf::Document, blob: &[u8]) -> Vec<Triangle> {
+        let mut out = Vec::new();
+        let mut stack: Vec<(gltf::Node, Mat4)> = doc
+            .default_scene()
+            .unwrap()
+            .nodes()
+            .map(|n| (n, Mat4::IDENTITY))
+            .collect();
+        while let Some((node, parent)) = stack.pop() {
+            let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+            stack.extend(node.children().map(|c| (c, world)));
+            let Some(mesh) = node.mesh() else { continue };
+            let normal_matrix = glam::Mat3::from_mat4(world).inverse().transpose();
+            for prim in mesh.primitives() {
+                let reader = prim.reader(|_| Some(blob));
+                let pos: Vec<Vec3> = reader
+                    .read_positions()
+                    .unwrap()
+                    .map(|p| world.transform_point3(p.into()))
+                    .collect();
+                let nor: Option<Vec<Vec3>> = reader.read_normals().map(|n| {
+                    n.map(|n| (normal_matrix * Vec3::from(n)).normalize())
+                        .collect()
+                });
+                let idx: Vec<usize> = match reader.read_indices() {
+                    Some(i) => i.into_u32().map(|i| i as usize).collect(),
+                    None => (0..pos.len()).collect(),
+                };
+                for t in idx.chunks(3) {
+                    out.push(Triangle {
+                        material: prim.material().index().unwrap(),
+                        mesh_name: mesh.name().unwrap().to_owned(),
+                        corners: [pos[t[0]], pos[t[1]], pos[t[2]]],
+                        normals: nor.as_ref().map(|n| [n[t[0]], n[t[1]], n[t[2]]]),
+                    });
+                }
+            }
+        }
+        out
+    }
+
+    /// Emitted radiance scale (max colour component × strength) per material.
+    fn radiances(doc: &gltf::Document) -> Vec<f32> {
+        doc.materials()
+            .map(|m| {
+                let e = m.emissive_factor();
+                e[0].max(e[1]).max(e[2]) * m.emissive_strength().unwrap_or(1.0)
+            })
+            .collect()
+    }
+
+    /// Vertex normals, where present, agree with the winding.
+    fn assert_normals_match_winding(tris: &[Triangle]) {
+        for t in tris {
+            for n in t.normals.iter().flatten() {
+                assert!(n.dot(t.geometric_normal()) > 0.999, "{}", t.mesh_name);
+            }
+        }
+    }
+
+    #[test]
+    fn cornell_round_trips() {
+        let b = cornell();
+        for ext in ["glb", "gltf"] {
+            let (doc, blob) = round_trip(&b, ext);
+            assert_matches(&b, &doc, &blob);
+            assert_eq!(
+                (
+                    doc.meshes().len(),
+                    doc.materials().len(),
+                    doc.cameras().len()
+                ),
+                (6, 5, 1)
+            );
+        }
+    }
+
+    #[test]
+    fn cornell_has_one_downward_emitter_and_inward_walls() {
+        let (doc, blob) = round_trip(&cornell(), "glb");
+        let radiance = radiances(&doc);
+        let tris = world_triangles(&doc, &blob);
+        assert_normals_match_winding(&tris);
+        let emitters: Vec<&Triangle> = tris.iter().filter(|t| radiance[t.material] > 0.0).collect();
+        assert_eq!(emitters.len(), 2);
+        for t in emitters {
+            assert!(t.geometric_normal().distance(Vec3::NEG_Y) < 1e-6);
+            assert!(t.corners.iter().all(|c| (c.y - 1.999).abs() < 1e-6));
+            assert!(t
+                .corners
+                .iter()
+                .all(|c| c.x.abs() <= 0.25 && c.z.abs() <= 0.2));
+            assert!(!doc.materials().nth(t.material).unwrap().double_sided());
+        }
+        let walls = tris.iter().filter(|t| t.mesh_name.contains("wall"));
+        let room_centre = Vec3::new(0.0, 1.0, 0.0);
+        for t in walls {
+            assert!(
+                t.geometric_normal().dot(room_centre - t.centroid()) > 0.0,
+                "{}",
+                t.mesh_name
+            );
+        }
+        let boxes = tris.iter().filter(|t| t.mesh_name.contains("box"));
+        for c in boxes.flat_map(|t| t.corners) {
+            assert!(
+                c.x.abs() < 1.0 && c.z.abs() < 1.0 && (0.0..=1.2001).contains(&c.y),
+                "{c}"
+            );
+        }
+    }
+
+    #[test]
+    fn generators_are_deterministic() {
+        assert_eq!(cornell().to_glb_bytes(), cornell().to_glb_bytes());
+        let town = many_lights(7, 12_000).to_glb_bytes();
+        assert_eq!(town, many_lights(7, 12_000).to_glb_bytes());
+        assert_ne!(town, many_lights(8, 12_000).to_glb_bytes());
+    }
+
+    #[test]
+    fn many_lights_round_trips_with_wide_radiance_range() {
+        let b = many_lights(1, 12_000);
+        let (doc, blob) = round_trip(&b, "glb");
+        assert_matches(&b, &doc, &blob);
+        assert!(doc.materials().len() <= 150);
+        assert!(b.to_glb_bytes().len() < 3_000_000);
+
+        let radiance = radiances(&doc);
+        let tris = world_triangles(&doc, &blob);
+        assert_normals_match_winding(&tris);
+        let lit: Vec<f32> = tris
+            .iter()
+            .map(|t| radiance[t.material])
+            .filter(|&r| r > 0.0)
+            .collect();
+        assert!(
+            (10_000..=14_000).contains(&lit.len()),
+            "{} emissive triangles",
+            lit.len()
+        );
+        let max = lit.iter().copied().fold(0.0, f32::max);
+        let min = lit.iter().copied().fold(f32::INFINITY, f32::min);
+        assert!(max / min >= 1e5, "radiance range {min} .. {max}");
+        let two_sided = doc.materials().filter(|m| m.double_sided()).count();
+        assert!(two_sided > 0 && two_sided < doc.materials().len());
+    }
+
+    #[test]
+    fn town_lights_are_outside_buildings_and_above_ground() {
+        let (doc, blob) = round_trip(&many_lights(3, 12_000), "glb");
+        let buildings = town_buildings(&mut Pcg32::seed_from_u64(3));
+        let radiance = radiances(&doc);
+        let tris = world_triangles(&doc, &blob);
+        for t in tris.iter().filter(|t| radiance[t.material] > 0.0) {
+            let c = t.centroid();
+            assert!(
+                c.y > 0.5 && c.x.abs() < HALF_TOWN && c.z.abs() < HALF_TOWN,
+                "{c}"
+            );
+            for bld in &buildings {
+                let inside = c.cmpgt(bld.min).all() && c.cmplt(bld.max).all();
+                assert!(!inside, "{} at {c} is inside a building", t.mesh_name);
+            }
+        }
+        let camera = doc.nodes().find(|n| n.camera().is_some()).unwrap();
+        let eye = Vec3::from(camera.transform().decomposed().0);
+        assert!(buildings
+            .iter()
+            .all(|b| !(eye.cmpgt(b.min).all() && eye.cmplt(b.max).all())));
+    }
+
+    #[test]
+    fn small_and_odd_light_targets_work() {
+        for target in [0, 1, 7, 301] {
+            let b = many_lights(5, target);
+            let (doc, blob) = round_trip(&b, "glb");
+            let radiance = radiances(&doc);
+            let lit = world_triangles(&doc, &blob)
+                .iter()
+                .filter(|t| radiance[t.material] > 0.0)
+                .count();
+            assert_eq!(lit, target.div_ceil(2) * 2);
+        }
+    }
+}

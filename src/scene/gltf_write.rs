@@ -1,0 +1,942 @@
+//! A minimal, deterministic glTF 2.0 writer.
+//!
+//! [`GltfBuilder`] collects materials, triangle meshes, perspective cameras
+//! and a node hierarchy, and writes them either as one binary `.glb` file or
+//! as a `.gltf` JSON file whose single buffer is embedded as a base64 data
+//! URI. The same inputs always produce the same bytes.
+
+use std::fs;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context};
+use glam::{Mat3, Quat, Vec3};
+use serde_json::{json, Map, Value};
+
+/// Name of the extension used for emissive strengths other than 1.
+const EMISSIVE_STRENGTH_EXT: &str = "KHR_materials_emissive_strength";
+
+/// glTF component type and buffer-view target codes.
+const FLOAT: u32 = 5126;
+const UNSIGNED_SHORT: u32 = 5123;
+const UNSIGNED_INT: u32 = 5125;
+const ARRAY_BUFFER: u32 = 34962;
+const ELEMENT_ARRAY_BUFFER: u32 = 34963;
+const MODE_TRIANGLES: u32 = 4;
+
+/// GLB container constants.
+const GLB_MAGIC: u32 = 0x4654_6C67;
+const GLB_VERSION: u32 = 2;
+const CHUNK_JSON: u32 = 0x4E4F_534A;
+const CHUNK_BIN: u32 = 0x004E_4942;
+
+/// A metallic-roughness material with an optional emission.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    /// Material name.
+    pub name: String,
+    /// Linear RGB base colour; alpha is always 1.
+    pub base_color: [f32; 3],
+    /// Metallic factor in [0, 1].
+    pub metallic: f32,
+    /// Roughness factor in [0, 1].
+    pub roughness: f32,
+    /// `emissiveFactor`, each component in [0, 1].
+    pub emissive: [f32; 3],
+    /// Multiplier on `emissive`; written as `KHR_materials_emissive_strength`
+    /// when it is not 1.
+    pub emissive_strength: f32,
+    /// Whether both sides of each triangle are rendered (and emit).
+    pub double_sided: bool,
+}
+
+impl Default for Material {
+    /// A white, rough, non-emissive, one-sided dielectric.
+    fn default() -> Self {
+        Self {
+            name: String::new(),
+            base_color: [1.0; 3],
+            metallic: 0.0,
+            roughness: 1.0,
+            emissive: [0.0; 3],
+            emissive_strength: 1.0,
+            double_sided: false,
+        }
+    }
+}
+
+/// The local transform of a node.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum NodeTransform {
+    /// No transform.
+    Identity,
+    /// Translation, rotation (unit quaternion, `[x, y, z, w]`) and scale,
+    /// applied as `T * R * S`.
+    Trs {
+        /// Translation.
+        translation: [f32; 3],
+        /// Rotation quaternion `[x, y, z, w]`.
+        rotation: [f32; 4],
+        /// Per-axis scale.
+        scale: [f32; 3],
+    },
+    /// A 4×4 affine matrix in column-major order.
+    Matrix([f32; 16]),
+}
+
+/// Stored data of one single-primitive triangle mesh.
+#[derive(Clone, Debug)]
+struct MeshData {
+    name: String,
+    positions: Vec<[f32; 3]>,
+    normals: Option<Vec<[f32; 3]>>,
+    indices: Option<Vec<u32>>,
+    material: usize,
+}
+
+/// Stored data of one node.
+#[derive(Clone, Debug)]
+struct NodeData {
+    name: String,
+    mesh: Option<usize>,
+    camera: Option<usize>,
+    transform: NodeTransform,
+    children: Vec<usize>,
+    parent: Option<usize>,
+}
+
+/// Stored data of one perspective camera.
+#[derive(Clone, Debug)]
+struct CameraData {
+    name: String,
+    yfov: f32,
+    aspect_ratio: Option<f32>,
+    znear: f32,
+}
+
+/// Collects a glTF scene and writes it as `.glb` or `.gltf`.
+///
+/// Indices returned by the `add_*` methods refer to the element in its
+/// glTF array and are what the other methods expect. Invalid arguments
+/// (out-of-range indices, non-finite numbers, malformed meshes) are
+/// programming errors and panic.
+#[derive(Clone, Debug, Default)]
+pub struct GltfBuilder {
+    materials: Vec<Material>,
+    meshes: Vec<MeshData>,
+    nodes: Vec<NodeData>,
+    cameras: Vec<CameraData>,
+}
+
+impl GltfBuilder {
+    /// Creates an empty builder.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Adds a material and returns its index.
+    ///
+    /// # Panics
+    /// If a factor is non-finite or outside its valid range.
+    pub fn add_material(&mut self, material: Material) -> usize {
+        let m = &material;
+        let unit = m
+            .base_color
+            .iter()
+            .chain(&m.emissive)
+            .chain([&m.metallic, &m.roughness]);
+        for &v in unit {
+            assert!(
+                (0.0..=1.0).contains(&v),
+                "material {:?}: factor {v} not in [0, 1]",
+                m.name
+            );
+        }
+        assert!(
+            m.emissive_strength.is_finite() && m.emissive_strength >= 0.0,
+            "material {:?}: invalid emissive strength {}",
+            m.name,
+            m.emissive_strength
+        );
+        self.materials.push(material);
+        self.materials.len() - 1
+    }
+
+    /// Adds a mesh with one triangle-list primitive and returns its index.
+    ///
+    /// Without `indices`, consecutive vertex triples form the triangles.
+    ///
+    /// # Panics
+    /// If `positions` is empty or not finite, `normals` has a different
+    /// length, an index is out of range, the triangle count is fractional,
+    /// or `material` does not exist.
+    pub fn add_mesh(
+        &mut self,
+        name: &str,
+        positions: &[[f32; 3]],
+        normals: Option<&[[f32; 3]]>,
+        indices: Option<&[u32]>,
+        material: usize,
+    ) -> usize {
+        assert!(!positions.is_empty(), "mesh {name:?}: no positions");
+        assert_finite(positions.iter().flatten(), name);
+        if let Some(n) = normals {
+            assert_eq!(n.len(), positions.len(), "mesh {name:?}: normal count");
+            assert_finite(n.iter().flatten(), name);
+        }
+        let corner_count = indices.map_or(positions.len(), <[u32]>::len);
+        assert!(
+            corner_count > 0 && corner_count.is_multiple_of(3),
+            "mesh {name:?}: not a triangle list"
+        );
+        if let Some(idx) = indices {
+            assert!(
+                idx.iter().all(|&i| (i as usize) < positions.len()),
+                "mesh {name:?}: index out of range"
+            );
+        }
+        assert!(
+            material < self.materials.len(),
+            "mesh {name:?}: no material {material}"
+        );
+        self.meshes.push(MeshData {
+            name: name.to_owned(),
+            positions: positions.to_vec(),
+            normals: normals.map(<[_]>::to_vec),
+            indices: indices.map(<[_]>::to_vec),
+            material,
+        });
+        self.meshes.len() - 1
+    }
+
+    /// Adds a perspective camera (infinite far plane) and returns its index.
+    ///
+    /// # Panics
+    /// If `yfov_radians`, `aspect_ratio` or `znear` is not positive and finite.
+    pub fn add_perspective_camera(
+        &mut self,
+        name: &str,
+        yfov_radians: f32,
+        aspect_ratio: Option<f32>,
+        znear: f32,
+    ) -> usize {
+        for v in [Some(yfov_radians), aspect_ratio, Some(znear)]
+            .into_iter()
+            .flatten()
+        {
+            assert!(
+                v.is_finite() && v > 0.0,
+                "camera {name:?}: invalid parameter {v}"
+            );
+        }
+        self.cameras.push(CameraData {
+            name: name.to_owned(),
+            yfov: yfov_radians,
+            aspect_ratio,
+            znear,
+        });
+        self.cameras.len() - 1
+    }
+
+    /// Adds a node and returns its index. Nodes that never become a child
+    /// (see [`GltfBuilder::add_child`]) are roots of the default scene.
+    ///
+    /// # Panics
+    /// If `mesh` or `camera` does not exist or `transform` is not finite.
+    pub fn add_node(
+        &mut self,
+        name: &str,
+        mesh: Option<usize>,
+        camera: Option<usize>,
+        transform: NodeTransform,
+    ) -> usize {
+        assert!(
+            mesh.is_none_or(|m| m < self.meshes.len()),
+            "node {name:?}: no such mesh"
+        );
+        assert!(
+            camera.is_none_or(|c| c < self.cameras.len()),
+            "node {name:?}: no such camera"
+        );
+        match &transform {
+            NodeTransform::Identity => {}
+            NodeTransform::Trs {
+                translation,
+                rotation,
+                scale,
+            } => {
+                assert_finite(translation.iter().chain(rotation).chain(scale), name);
+            }
+            NodeTransform::Matrix(m) => assert_finite(m.iter(), name),
+        }
+        self.nodes.push(NodeData {
+            name: name.to_owned(),
+            mesh,
+            camera,
+            transform,
+            children: Vec::new(),
+            parent: None,
+        });
+        self.nodes.len() - 1
+    }
+
+    /// Makes node `child` a child of node `parent`.
+    ///
+    /// # Panics
+    /// If either node does not exist, `child` already has a parent, or the
+    /// link would create a cycle.
+    pub fn add_child(&mut self, parent: usize, child: usize) {
+        assert!(
+            parent < self.nodes.len() && child < self.nodes.len(),
+            "no such node"
+        );
+        assert!(
+            self.nodes[child].parent.is_none(),
+            "node {child} already has a parent"
+        );
+        let mut ancestor = Some(parent);
+        while let Some(a) = ancestor {
+            assert!(
+                a != child,
+                "linking node {child} under {parent} creates a cycle"
+            );
+            ancestor = self.nodes[a].parent;
+        }
+        self.nodes[child].parent = Some(parent);
+        self.nodes[parent].children.push(child);
+    }
+
+    /// Writes the scene to `path`: binary glTF for a `.glb` extension, JSON
+    /// with an embedded base64 buffer for `.gltf`. The file is written to a
+    /// temporary sibling first and then renamed into place.
+    pub fn write(&self, path: &Path) -> anyhow::Result<()> {
+        let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
+        let bytes = if ext.eq_ignore_ascii_case("glb") {
+            self.to_glb_bytes()
+        } else if ext.eq_ignore_ascii_case("gltf") {
+            self.to_gltf_bytes()
+        } else {
+            bail!(
+                "{}: unsupported extension (expected .glb or .gltf)",
+                path.display()
+            );
+        };
+        write_atomically(path, &bytes)
+    }
+
+    /// Returns the scene as a binary glTF (GLB) file.
+    ///
+    /// # Panics
+    /// If the file would exceed the 4 GiB limit of the GLB format.
+    pub fn to_glb_bytes(&self) -> Vec<u8> {
+        let (mut doc, bin) = self.document();
+        if !bin.is_empty() {
+            doc["buffers"] = json!([{ "byteLength": bin.len() }]);
+        }
+        let json = serde_json::to_vec(&doc).expect("a JSON value always serialises");
+        let json_chunk = padded(json, b' ');
+        let bin_chunk = padded(bin, 0);
+        let mut total = 12 + 8 + json_chunk.len();
+        if !bin_chunk.is_empty() {
+            total += 8 + bin_chunk.len();
+        }
+        let mut out = Vec::with_capacity(total);
+        for word in [GLB_MAGIC, GLB_VERSION, u32_len(total)] {
+            out.extend_from_slice(&word.to_le_bytes());
+        }
+        push_chunk(&mut out, CHUNK_JSON, &json_chunk);
+        if !bin_chunk.is_empty() {
+            push_chunk(&mut out, CHUNK_BIN, &bin_chunk);
+        }
+        out
+    }
+
+    /// Returns the scene as `.gltf` JSON with the buffer as a data URI.
+    fn to_gltf_bytes(&self) -> Vec<u8> {
+        let (mut doc, bin) = self.document();
+        if !bin.is_empty() {
+            let uri = format!("data:application/octet-stream;base64,{}", base64(&bin));
+            doc["buffers"] = json!([{ "byteLength": bin.len(), "uri": uri }]);
+        }
+        let mut out = serde_json::to_vec_pretty(&doc).expect("a JSON value always serialises");
+        out.push(b'\n');
+        out
+    }
+
+    /// Builds the JSON document (without `buffers`) and the binary buffer.
+    fn document(&self) -> (Value, Vec<u8>) {
+        let mut bin = BinWriter::default();
+        let meshes: Vec<Value> = self.meshes.iter().map(|m| mesh_json(m, &mut bin)).collect();
+        let mut doc = Map::new();
+        doc.insert(
+            "asset".into(),
+            json!({ "version": "2.0", "generator": "manylights" }),
+        );
+        if self.materials.iter().any(|m| m.emissive_strength != 1.0) {
+            doc.insert("extensionsUsed".into(), json!([EMISSIVE_STRENGTH_EXT]));
+        }
+        let roots: Vec<usize> = (0..self.nodes.len())
+            .filter(|&i| self.nodes[i].parent.is_none())
+            .collect();
+        // The `gltf` crate rejects a scene without nodes, so omit it instead.
+        if !roots.is_empty() {
+            doc.insert("scene".into(), json!(0));
+            doc.insert("scenes".into(), json!([{ "nodes": roots }]));
+        }
+        insert_array(
+            &mut doc,
+            "nodes",
+            self.nodes.iter().map(node_json).collect(),
+        );
+        insert_array(&mut doc, "meshes", meshes);
+        insert_array(
+            &mut doc,
+            "materials",
+            self.materials.iter().map(material_json).collect(),
+        );
+        insert_array(
+            &mut doc,
+            "cameras",
+            self.cameras.iter().map(camera_json).collect(),
+        );
+        insert_array(&mut doc, "accessors", bin.accessors);
+        insert_array(&mut doc, "bufferViews", bin.views);
+        (Value::Object(doc), bin.data)
+    }
+}
+
+/// Returns the rotation `[x, y, z, w]` of a node at `eye` whose local −Z axis
+/// points at `target` and whose local +Y is as close to `up` as possible
+/// (the glTF camera convention). If `up` is parallel to the view direction
+/// another up vector is used; `eye` and `target` must differ.
+pub fn look_at_rotation(eye: [f32; 3], target: [f32; 3], up: [f32; 3]) -> [f32; 4] {
+    let back = (Vec3::from(eye) - Vec3::from(target)).normalize();
+    let mut right = Vec3::from(up).cross(back);
+    if right.length_squared() < 1e-12 {
+        right = back.any_orthonormal_vector();
+    }
+    let right = right.normalize();
+    let true_up = back.cross(right);
+    Quat::from_mat3(&Mat3::from_cols(right, true_up, back))
+        .normalize()
+        .to_array()
+}
+
+/// Accumulates the binary buffer plus its buffer views and accessors.
+#[derive(Default)]
+struct BinWriter {
+    data: Vec<u8>,
+    views: Vec<Value>,
+    accessors: Vec<Value>,
+}
+
+impl BinWriter {
+    /// Appends `bytes` as a new 4-byte-aligned buffer view; returns its index.
+    fn view(&mut self, bytes: &[u8], target: u32) -> usize {
+        let offset = self.data.len();
+        self.data.extend_from_slice(bytes);
+        self.data.resize(self.data.len().next_multiple_of(4), 0);
+        self.views.push(json!({
+            "buffer": 0,
+            "byteOffset": offset,
+            "byteLength": bytes.len(),
+            "target": target,
+        }));
+        self.views.len() - 1
+    }
+
+    /// Adds a VEC3 float accessor, with min/max when `bounds` is set.
+    fn vec3(&mut self, values: &[[f32; 3]], bounds: bool) -> usize {
+        let bytes: Vec<u8> = values
+            .iter()
+            .flatten()
+            .flat_map(|v| v.to_le_bytes())
+            .collect();
+        let view = self.view(&bytes, ARRAY_BUFFER);
+        let mut acc = json!({
+            "bufferView": view,
+            "componentType": FLOAT,
+            "count": values.len(),
+            "type": "VEC3",
+        });
+        if bounds {
+            let (min, max) = bounds_of(values);
+            acc["min"] = num_array(&min);
+            acc["max"] = num_array(&max);
+        }
+        self.accessors.push(acc);
+        self.accessors.len() - 1
+    }
+
+    /// Adds a scalar index accessor, 16-bit when every index fits.
+    fn indices(&mut self, indices: &[u32]) -> usize {
+        let short = indices.iter().all(|&i| i <= u32::from(u16::MAX));
+        let (bytes, component): (Vec<u8>, u32) = if short {
+            let b = indices
+                .iter()
+                .flat_map(|&i| (i as u16).to_le_bytes())
+                .collect();
+            (b, UNSIGNED_SHORT)
+        } else {
+            (
+                indices.iter().flat_map(|i| i.to_le_bytes()).collect(),
+                UNSIGNED_INT,
+            )
+        };
+        let view = self.view(&bytes, ELEMENT_ARRAY_BUFFER);
+        self.accessors.push(json!({
+            "bufferView": view,
+            "componentType": component,
+            "count": indices.len(),
+            "type": "SCALAR",
+        }));
+        self.accessors.len() - 1
+    }
+}
+
+/// Writes a mesh's buffers into `bin` and returns its JSON object.
+fn mesh_json(mesh: &MeshData, bin: &mut BinWriter) -> Value {
+    let mut attributes = Map::new();
+    attributes.insert("POSITION".into(), json!(bin.vec3(&mesh.positions, true)));
+    if let Some(normals) = &mesh.normals {
+        attributes.insert("NORMAL".into(), json!(bin.vec3(normals, false)));
+    }
+    let mut primitive = json!({
+        "attributes": attributes,
+        "material": mesh.material,
+        "mode": MODE_TRIANGLES,
+    });
+    if let Some(indices) = &mesh.indices {
+        primitive["indices"] = json!(bin.indices(indices));
+    }
+    json!({ "name": mesh.name, "primitives": [primitive] })
+}
+
+/// Returns the JSON object of a material.
+fn material_json(m: &Material) -> Value {
+    let [r, g, b] = m.base_color;
+    let mut out = json!({
+        "name": m.name,
+        "pbrMetallicRoughness": {
+            "baseColorFactor": num_array(&[r, g, b, 1.0]),
+            "metallicFactor": num(m.metallic),
+            "roughnessFactor": num(m.roughness),
+        },
+        "emissiveFactor": num_array(&m.emissive),
+        "doubleSided": m.double_sided,
+    });
+    if m.emissive_strength != 1.0 {
+        out["extensions"] =
+            json!({ EMISSIVE_STRENGTH_EXT: { "emissiveStrength": num(m.emissive_strength) } });
+    }
+    out
+}
+
+/// Returns the JSON object of a perspective camera.
+fn camera_json(c: &CameraData) -> Value {
+    let mut perspective = json!({ "yfov": num(c.yfov), "znear": num(c.znear) });
+    if let Some(aspect) = c.aspect_ratio {
+        perspective["aspectRatio"] = num(aspect);
+    }
+    json!({ "name": c.name, "type": "perspective", "perspective": perspective })
+}
+
+/// Returns the JSON object of a node.
+fn node_json(n: &NodeData) -> Value {
+    let mut out = json!({ "name": n.name });
+    if let Some(mesh) = n.mesh {
+        out["mesh"] = json!(mesh);
+    }
+    if let Some(camera) = n.camera {
+        out["camera"] = json!(camera);
+    }
+    if !n.children.is_empty() {
+        out["children"] = json!(n.children);
+    }
+    match &n.transform {
+        NodeTransform::Identity => {}
+        NodeTransform::Trs {
+            translation,
+            rotation,
+            scale,
+        } => {
+            out["translation"] = num_array(translation);
+            out["rotation"] = num_array(rotation);
+            out["scale"] = num_array(scale);
+        }
+        NodeTransform::Matrix(m) => out["matrix"] = num_array(m),
+    }
+    out
+}
+
+/// Inserts `values` under `key` unless it is empty (glTF forbids empty arrays).
+fn insert_array(doc: &mut Map<String, Value>, key: &str, values: Vec<Value>) {
+    if !values.is_empty() {
+        doc.insert(key.into(), Value::Array(values));
+    }
+}
+
+/// A JSON number that prints as the shortest decimal reading back as `x`.
+fn num(x: f32) -> Value {
+    let shortest: f64 = x
+        .to_string()
+        .parse()
+        .expect("a finite f32 prints as a number");
+    json!(shortest)
+}
+
+/// A JSON array of [`num`]s.
+fn num_array(values: &[f32]) -> Value {
+    Value::Array(values.iter().map(|&v| num(v)).collect())
+}
+
+/// Component-wise minimum and maximum of a non-empty point list.
+fn bounds_of(points: &[[f32; 3]]) -> ([f32; 3], [f32; 3]) {
+    points.iter().fold(
+        ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]),
+        |(lo, hi), p| {
+            (
+                std::array::from_fn(|k| lo[k].min(p[k])),
+                std::array::from_fn(|k| hi[k].max(p[k])),
+            )
+        },
+    )
+}
+
+/// Panics unless every value is finite (JSON cannot store NaN or infinity).
+fn assert_finite<'a>(mut values: impl Iterator<Item = &'a f32>, what: &str) {
+    assert!(values.all(|v| v.is_finite()), "{what:?}: non-finite value");
+}
+
+/// Pads `bytes` with `fill` to a multiple of four.
+fn padded(mut bytes: Vec<u8>, fill: u8) -> Vec<u8> {
+    bytes.resize(bytes.len().next_multiple_of(4), fill);
+    bytes
+}
+
+/// Converts a byte length to the 32-bit field of the GLB format.
+fn u32_len(len: usize) -> u32 {
+    u32::try_from(len).expect("GLB files are limited to 4 GiB")
+}
+
+/// Appends one GLB chunk (length, type, already padded data).
+fn push_chunk(out: &mut Vec<u8>, kind: u32, data: &[u8]) {
+    out.extend_from_slice(&u32_len(data.len()).to_le_bytes());
+    out.extend_from_slice(&kind.to_le_bytes());
+    out.extend_from_slice(data);
+}
+
+/// Standard base64 (RFC 4648) with `=` padding.
+fn base64(bytes: &[u8]) -> String {
+    const ALPHABET: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut out = String::with_capacity(bytes.len().div_ceil(3) * 4);
+    for chunk in bytes.chunks(3) {
+        let b = [
+            chunk[0],
+            *chunk.get(1).unwrap_or(&0),
+            *chunk.get(2).unwrap_or(&0),
+        ];
+        let n = u32::from(b[0]) << 16 | u32::from(b[1]) << 8 | u32::from(b[2]);
+        for k in 0..4 {
+            if k <= chunk.len() {
+                out.push(char::from(ALPHABET[(n >> (18 - 6 * k) & 63) as usize]));
+            } else {
+                out.push('=');
+            }
+        }
+    }
+    out
+}
+
+/// Writes `bytes` to a temporary file next to `path`, then renames it over
+/// `path`. The temporary file is removed if anything fails.
+fn write_atomically(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
+    let tmp = temp_path(path)?;
+    let result = write_and_sync(&tmp, bytes).and_then(|()| {
+        fs::rename(&tmp, path)
+            .with_context(|| format!("renaming {} to {}", tmp.display(), path.display()))
+    });
+    if result.is_err() {
+        // Best effort: the temporary file may not even exist.
+        let _ = fs::remove_file(&tmp);
+    }
+    result
+}
+
+/// Creates (or truncates) `path`, writes `bytes` and flushes them to disk.
+fn write_and_sync(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
+    let mut file =
+        fs::File::create(path).with_context(|| format!("creating {}", path.display()))?;
+    file.write_all(bytes)
+        .with_context(|| format!("writing {}", path.display()))?;
+    file.sync_all()
+        .with_context(|| format!("syncing {}", path.display()))
+}
+
+/// `DIR/.NAME.tmp-PID` for the output `DIR/NAME`.
+fn temp_path(path: &Path) -> anyhow::Result<PathBuf> {
+    let name = path
+        .file_name()
+        .with_context(|| format!("{}: not a file path", path.display()))?;
+    let mut tmp_name = std::ffi::OsString::from(".");
+    tmp_name.push(name);
+    tmp_name.push(format!(".tmp-{}", std::process::id()));
+    Ok(path.with_file_name(tmp_name))
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+
+    /// A unique path in the system temp folder (removed by the caller).
+    fn temp_file(tag: &str, ext: &str) -> PathBuf {
+        use std::sync::atomic::{AtomicUsize, Ordering};
+        static COUNTER: AtomicUsize = AtomicUsize::new(0);
+        let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+        std::env::temp_dir().join(format!("manylights-{tag}-{}-{n}.{ext}", std::process::id()))
+    }
+
+    /// Decodes standard padded base64 (test helper only).
+    fn base64_decode(text: &str) -> Vec<u8> {
+        let value = |c: u8| match c {
+            b'A'..=b'Z' => u32::from(c - b'A'),
+            b'a'..=b'z' => u32::from(c - b'a') + 26,
+            b'0'..=b'9' => u32::from(c - b'0') + 52,
+            b'+' => 62,
+            b'/' => 63,
+            _ => panic!("invalid base64 byte {c}"),
+        };
+        let mut out = Vec::new();
+        for quad in text.as_bytes().chunks(4) {
+            let digits: Vec<u8> = quad.iter().copied().filter(|&c| c != b'=').collect();
+            let n = digits
+                .iter()
+                .enumerate()
+                .fold(0, |n, (k, &c)| n | value(c) << (18 - 6 * k));
+            out.extend_from_slice(&n.to_be_bytes()[1..digits.len()]);
+        }
+        out
+    }
+
+    /// Parses a file with the `gltf` crate (validating it) and returns the
+    /// document and its single buffer.
+    fn parse(bytes: &[u8]) -> (gltf::Document, Vec<u8>) {
+        let gltf = gltf::Gltf::from_slice(bytes).expect("valid glTF");
+        let blob = match gltf.document.buffers().next().map(|b| b.source()) {
+            None => Vec::new(),
+            Some(gltf::buffer::Source::Bin) => gltf.blob.clone().expect("GLB blob"),
+            Some(gltf::buffer::Source::Uri(uri)) => {
+                let data = uri
+                    .strip_prefix("data:application/octet-stream;base64,")
+                    .unwrap();
+                base64_decode(data)
+            }
+        };
+        (gltf.document, blob)
+    }
+
+    /// Writes `builder` to a temporary `.ext` file and loads it back.
+    pub(crate) fn round_trip(builder: &GltfBuilder, ext: &str) -> (gltf::Document, Vec<u8>) {
+        let path = temp_file("rt", ext);
+        builder.write(&path).unwrap();
+        let bytes = fs::read(&path);
+        fs::remove_file(&path).unwrap();
+        parse(&bytes.unwrap())
+    }
+
+    /// Checks that `doc` holds exactly what `builder` collected.
+    pub(crate) fn assert_matches(builder: &GltfBuilder, doc: &gltf::Document, blob: &[u8]) {
+        assert_eq!(doc.meshes().len(), builder.meshes.len());
+        assert_eq!(doc.materials().len(), builder.materials.len());
+        assert_eq!(doc.nodes().len(), builder.nodes.len());
+        assert_eq!(doc.cameras().len(), builder.cameras.len());
+        for (mesh, want) in doc.meshes().zip(&builder.meshes) {
+            assert_eq!(mesh.name(), Some(want.name.as_str()));
+            let prim = mesh.primitives().next().unwrap();
+            assert_eq!(prim.mode(), gltf::mesh::Mode::Triangles);
+            assert_eq!(prim.material().index(), Some(want.material));
+            let reader = prim.reader(|_| Some(blob));
+            let positions: Vec<[f32; 3]> = reader.read_positions().unwrap().collect();
+            assert_eq!(positions, want.positions);
+            let normals: Option<Vec<[f32; 3]>> = reader.read_normals().map(Iterator::collect);
+            assert_eq!(normals, want.normals);
+            let indices: Option<Vec<u32>> = reader.read_indices().map(|i| i.into_u32().collect());
+            assert_eq!(indices, want.indices);
+        }
+        for (mat, want) in doc.materials().zip(&builder.materials) {
+            assert_eq!(mat.name(), Some(want.name.as_str()));
+            assert_eq!(mat.emissive_factor(), want.emissive);
+            assert_eq!(
+                mat.emissive_strength().unwrap_or(1.0),
+                want.emissive_strength
+            );
+            assert_eq!(mat.double_sided(), want.double_sided);
+            let pbr = mat.pbr_metallic_roughness();
+            assert_eq!(pbr.base_color_factor()[..3], want.base_color);
+            assert_eq!(pbr.roughness_factor(), want.roughness);
+        }
+    }
+
+    /// A small scene using every feature: u16 and u32 indices, a
+    /// non-indexed mesh, normals, both transform kinds and a hierarchy.
+    fn sample() -> GltfBuilder {
+        let mut b = GltfBuilder::new();
+        let plain = b.add_material(Material {
+            name: "plain".into(),
+            ..Material::default()
+        });
+        let glow = b.add_material(Material {
+            name: "glow".into(),
+            emissive: [1.0, 0.5, 0.25],
+            emissive_strength: 7.5,
+            double_sided: true,
+            ..Material::default()
+        });
+        let tri = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+        let up = [[0.0, 0.0, 1.0]; 3];
+        let m0 = b.add_mesh("tri", &tri, Some(&up), Some(&[0, 1, 2]), plain);
+        let big: Vec<[f32; 3]> = (0..70_002).map(|i| [i as f32 * 0.1, -0.3, 1e-3]).collect();
+        let big_idx: Vec<u32> = (0..70_002).rev().collect();
+        let m1 = b.add_mesh("big", &big, None, Some(&big_idx), glow);
+        let m2 = b.add_mesh("soup", &tri, None, None, glow);
+        let cam = b.add_perspective_camera("cam", 0.7, Some(1.5), 0.01);
+        let root = b.add_node("root", None, None, NodeTransform::Identity);
+        let trs = NodeTransform::Trs {
+            translation: [1.0, 2.0, 3.0],
+            rotation: [0.0, 0.0, 0.0, 1.0],
+            scale: [2.0, 2.0, 2.0],
+        };
+        let n0 = b.add_node("a", Some(m0), None, trs);
+        let mut matrix = [0.0; 16];
+        for k in [0, 5, 10, 15] {
+            matrix[k] = 1.0;
+        }
+        matrix[13] = 4.0;
+        let n1 = b.add_node("b", Some(m1), None, NodeTransform::Matrix(matrix));
+        b.add_node("c", Some(m2), Some(cam), NodeTransform::Identity);
+        b.add_child(root, n0);
+        b.add_child(n0, n1);
+        b
+    }
+
+    #[test]
+    fn round_trip_glb_and_gltf() {
+        let b = sample();
+        for ext in ["glb", "gltf"] {
+            let (doc, blob) = round_trip(&b, ext);
+            assert_matches(&b, &doc, &blob);
+            let roots: Vec<&str> = doc
+                .default_scene()
+                .unwrap()
+                .nodes()
+                .map(|n| n.name().unwrap())
+                .collect();
+            assert_eq!(roots, ["root", "c"]);
+            let node_b = doc.nodes().nth(2).unwrap();
+            assert_eq!(node_b.transform().decomposed().0, [0.0, 4.0, 0.0]);
+            let cam = doc.cameras().next().unwrap();
+            let gltf::camera::Projection::Perspective(p) = cam.projection() else {
+                panic!("expected a perspective camera");
+            };
+            assert_eq!(
+                (p.yfov(), p.aspect_ratio(), p.znear(), p.zfar()),
+                (0.7, Some(1.5), 0.01, None)
+            );
+        }
+    }
+
+    #[test]
+    fn glb_layout_is_well_formed() {
+        let bytes = sample().to_glb_bytes();
+        let word = |at: usize| u32::from_le_bytes(bytes[at..at + 4].try_into().unwrap()) as usize;
+        assert_eq!(&bytes[..4], b"glTF");
+        assert_eq!(word(4), 2);
+        assert_eq!(word(8), bytes.len());
+        let json_len = word(12);
+        assert_eq!(&bytes[16..20], b"JSON");
+        assert_eq!(json_len % 4, 0);
+        let bin_at = 20 + json_len;
+        assert_eq!(&bytes[bin_at + 4..bin_at + 8], b"BIN\0");
+        assert_eq!(bin_at + 8 + word(bin_at), bytes.len());
+        let doc: Value = serde_json::from_slice(&bytes[20..bin_at]).unwrap();
+        assert_eq!(
+            doc["asset"],
+            json!({ "version": "2.0", "generator": "manylights" })
+        );
+        assert_eq!(doc["extensionsUsed"], json!([EMISSIVE_STRENGTH_EXT]));
+        assert_eq!(doc["accessors"][4]["componentType"], json!(UNSIGNED_INT));
+        assert_eq!(doc["accessors"][0]["max"], json!([1.0, 1.0, 0.0]));
+        assert_eq!(
+            doc["materials"][0]["pbrMetallicRoughness"]["baseColorFactor"],
+            json!([1.0, 1.0, 1.0, 1.0])
+        );
+    }
+
+    #[test]
+    fn strength_one_needs_no_extension() {
+        let mut b = GltfBuilder::new();
+        b.add_material(Material::default());
+        let (doc, _) = round_trip(&b, "glb");
+        assert_eq!(doc.extensions_used().count(), 0);
+        assert_eq!(doc.meshes().len(), 0);
+    }
+
+    #[test]
+    fn look_at_points_minus_z_at_target() {
+        let eye = [1.0, 2.0, 3.0];
+        let target = [-2.0, 0.5, -1.0];
+        let q = Quat::from_array(look_at_rotation(eye, target, [0.0, 1.0, 0.0]));
+        let want = (Vec3::from(target) - Vec3::from(eye)).normalize();
+        assert!((q * Vec3::NEG_Z).distance(want) < 1e-6);
+        assert!((q * Vec3::X).y.abs() < 1e-6, "camera must not roll");
+        assert!((q * Vec3::Y).y > 0.0);
+        let down = Quat::from_array(look_at_rotation(
+            [0.0; 3],
+            [0.0, -1.0, 0.0],
+            [0.0, 1.0, 0.0],
+        ));
+        assert!((down * Vec3::NEG_Z).distance(Vec3::NEG_Y) < 1e-6);
+    }
+
+    #[test]
+    fn base64_matches_rfc_4648_vectors() {
+        let cases = [
+            ("", ""),
+            ("f", "Zg=="),
+            ("fo", "Zm8="),
+            ("foo", "Zm9v"),
+            ("foobar", "Zm9vYmFy"),
+        ];
+        for (plain, encoded) in cases {
+            assert_eq!(base64(plain.as_bytes()), encoded);
+            assert_eq!(base64_decode(encoded), plain.as_bytes());
+        }
+    }
+
+    #[test]
+    fn write_replaces_the_file_and_leaves_no_temporary() {
+        let path = temp_file("atomic", "glb");
+        fs::write(&path, b"old contents").unwrap();
+        let b = sample();
+        b.write(&path).unwrap();
+        let written = fs::read(&path);
+        fs::remove_file(&path).unwrap();
+        assert_eq!(written.unwrap(), b.to_glb_bytes());
+        assert!(!temp_path(&path).unwrap().exists());
+    }
+
+    #[test]
+    fn bad_extension_and_bad_folder_are_errors() {
+        let b = sample();
+        let err = b.write(&temp_file("ext", "obj")).unwrap_err();
+        assert!(err.to_string().contains("unsupported extension"), "{err:#}");
+        let missing = std::env::temp_dir()
+            .join("manylights-no-such-dir")
+            .join("x.glb");
+        let err = b.write(&missing).unwrap_err();
+        assert!(
+            format!("{err:#}").contains("manylights-no-such-dir"),
+            "{err:#}"
+        );
+    }
+}

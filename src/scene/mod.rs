@@ -1,0 +1,186 @@
+//! The scene model: plain, validated data that every later stage reads.
+//!
+//! Triangles are stored in world space (node transforms applied at load time), each with
+//! per-vertex shading normals, texture coordinates and a material index. Emission lives in
+//! the material: a triangle whose material has non-zero emitted radiance is a light.
+
+mod camera;
+pub mod generate;
+mod gltf_load;
+pub mod gltf_write;
+
+pub use camera::Camera;
+pub use gltf_load::{load_gltf, CameraChoice, LoadError};
+
+use glam::{Vec2, Vec3};
+
+/// glTF metallic-roughness material, reduced to constant factors.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    /// Linear Rec.709 base colour (albedo of the diffuse lobe, F0 of metals).
+    pub base_color: Vec3,
+    pub metallic: f32,
+    /// Perceptual roughness; the GGX α is its square.
+    pub roughness: f32,
+    /// KHR_materials_specular `specularFactor`: scales the dielectric specular lobe (1 by default,
+    /// 0 gives a pure Lambertian surface).
+    pub specular: f32,
+    /// Emitted radiance, W·sr⁻¹·m⁻²: emissiveFactor × KHR_materials_emissive_strength.
+    pub emission: Vec3,
+    /// Emits (and is a light) from both faces; otherwise only from the counter-clockwise front.
+    pub double_sided: bool,
+}
+
+impl Default for Material {
+    /// glTF's default material: white, fully metallic, fully rough, not emissive.
+    fn default() -> Self {
+        Material {
+            base_color: Vec3::ONE,
+            metallic: 1.0,
+            roughness: 1.0,
+            specular: 1.0,
+            emission: Vec3::ZERO,
+            double_sided: false,
+        }
+    }
+}
+
+impl Material {
+    /// A white-ish Lambertian surface of albedo `rho` with no specular lobe.
+    pub fn lambert(rho: Vec3) -> Self {
+        Material {
+            base_color: rho,
+            metallic: 0.0,
+            roughness: 1.0,
+            specular: 0.0,
+            ..Material::default()
+        }
+    }
+
+    /// A black one-sided emitter of radiance `radiance`.
+    pub fn emitter(radiance: Vec3, double_sided: bool) -> Self {
+        Material {
+            base_color: Vec3::ZERO,
+            metallic: 0.0,
+            specular: 0.0,
+            emission: radiance,
+            double_sided,
+            ..Material::default()
+        }
+    }
+
+    pub fn is_emissive(&self) -> bool {
+        self.emission.max_element() > 0.0
+    }
+}
+
+/// One world-space triangle. The geometric normal is `(p1 − p0) × (p2 − p0)` normalised: the
+/// counter-clockwise front face.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Triangle {
+    pub positions: [Vec3; 3],
+    /// Unit shading normals per vertex (the geometric normal where the file has none).
+    pub normals: [Vec3; 3],
+    pub uvs: [Vec2; 3],
+    pub material: u32,
+}
+
+impl Triangle {
+    /// A flat triangle: shading normals equal to the geometric normal, zero uvs.
+    pub fn flat(positions: [Vec3; 3], material: u32) -> Self {
+        let n = geometric_normal(&positions);
+        Triangle { positions, normals: [n; 3], uvs: [Vec2::ZERO; 3], material }
+    }
+
+    pub fn geometric_normal(&self) -> Vec3 {
+        geometric_normal(&self.positions)
+    }
+
+    pub fn area(&self) -> f32 {
+        triangle_area(&self.positions)
+    }
+}
+
+fn edge_cross(p: &[Vec3; 3]) -> Vec3 {
+    (p[1] - p[0]).cross(p[2] - p[0])
+}
+
+/// Unit normal of the counter-clockwise front face (zero for a degenerate triangle).
+pub fn geometric_normal(p: &[Vec3; 3]) -> Vec3 {
+    edge_cross(p).normalize_or_zero()
+}
+
+/// Area computed in f64 so that tiny triangles far from the origin keep their area.
+pub fn triangle_area(p: &[Vec3; 3]) -> f32 {
+    let a = p[1].as_dvec3() - p[0].as_dvec3();
+    let b = p[2].as_dvec3() - p[0].as_dvec3();
+    (0.5 * a.cross(b).length()) as f32
+}
+
+/// What the loader skipped, so that users see it instead of silently missing geometry.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct LoadStats {
+    /// Triangles of zero (or non-finite) area, not added to the scene.
+    pub degenerate_triangles: usize,
+    /// Primitives in a mode other than TRIANGLES (points, lines, strips, fans).
+    pub skipped_primitives: usize,
+    /// KHR_lights_punctual lights present in the file (not yet rendered).
+    pub ignored_punctual_lights: usize,
+}
+
+/// A validated scene: at least one triangle, every material index in range, every position
+/// finite, every triangle of positive area.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    pub triangles: Vec<Triangle>,
+    pub materials: Vec<Material>,
+    /// The camera the file chose (or None when the file has no perspective camera).
+    pub camera: Option<Camera>,
+    pub stats: LoadStats,
+}
+
+impl Scene {
+    /// Builds a scene from triangles, dropping (and counting) degenerate ones.
+    pub fn new(
+        triangles: Vec<Triangle>,
+        materials: Vec<Material>,
+        camera: Option<Camera>,
+    ) -> Result<Scene, String> {
+        let mut stats = LoadStats::default();
+        let mut kept = Vec::with_capacity(triangles.len());
+        for (i, t) in triangles.into_iter().enumerate() {
+            if t.positions.iter().any(|p| !p.is_finite()) {
+                return Err(format!("triangle {i} has a non-finite vertex position"));
+            }
+            if t.material as usize >= materials.len() {
+                return Err(format!(
+                    "triangle {i} uses material {} but there are {} materials",
+                    t.material,
+                    materials.len()
+                ));
+            }
+            let area = t.area();
+            if area > 0.0 && area.is_finite() && t.geometric_normal() != Vec3::ZERO {
+                kept.push(t);
+            } else {
+                stats.degenerate_triangles += 1;
+            }
+        }
+        if kept.is_empty() {
+            return Err("the scene has no triangles of positive area".into());
+        }
+        Ok(Scene { triangles: kept, materials, camera, stats })
+    }
+
+    pub fn material_of(&self, triangle: usize) -> &Material {
+        &self.materials[self.triangles[triangle].material as usize]
+    }
+
+    /// Axis-aligned bounds of all vertices: (min, max).
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        self.triangles.iter().flat_map(|t| t.positions).fold(
+            (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+            |(lo, hi), p| (lo.min(p), hi.max(p)),
+        )
+    }
+}
