@@ -1,0 +1,191 @@
+//! Rendered pixels against Lambert's polygon formula: a Lambertian plane (albedo ρ) lit by four
+//! one-sided emissive quads, unoccluded, seen from above by a camera that does not see the
+//! emitters. Each pixel's expected value is ρ·E(x)/π averaged over the pixel's footprint on the
+//! plane (8×8 midpoint quadrature), computed here independently of the renderer.
+
+use glam::{DVec3, Mat4, Vec3};
+use manylights::accel::Accel;
+use manylights::integrator::{render, Estimator, RenderOptions, Strategy};
+use manylights::lights::Lights;
+use manylights::scene::{Camera, Material, Scene, Triangle};
+use manylights::select::{LightSelector, SelectorKind};
+
+const RHO: f32 = 0.5;
+const CAMERA_HEIGHT: f32 = 3.0;
+const YFOV_DEG: f32 = 20.0;
+const SIZE: u32 = 24;
+
+/// Emitters at height 0.6 facing −Z (down), around the camera's field of view:
+/// (x0, y0, x1, y1, radiance).
+const QUADS: [(f32, f32, f32, f32, f32); 4] = [
+    (0.5, -0.6, 1.4, 0.4, 4.0),
+    (-1.3, -0.8, -0.5, 0.9, 1.5),
+    (-0.4, 0.55, 0.7, 1.2, 9.0),
+    (-0.45, -1.5, 0.3, -0.55, 0.25),
+];
+const EMITTER_HEIGHT: f32 = 0.6;
+
+fn quad_corners(x0: f32, y0: f32, x1: f32, y1: f32, z: f32) -> [Vec3; 4] {
+    [Vec3::new(x0, y0, z), Vec3::new(x1, y0, z), Vec3::new(x1, y1, z), Vec3::new(x0, y1, z)]
+}
+
+fn scene() -> Scene {
+    let mut materials = vec![Material::lambert(Vec3::splat(RHO))];
+    // The plane faces +Z: counter-clockwise seen from above.
+    let [a, b, c, d] = quad_corners(-3.0, -3.0, 3.0, 3.0, 0.0);
+    let mut tris = vec![Triangle::flat([a, b, c], 0), Triangle::flat([a, c, d], 0)];
+    for &(x0, y0, x1, y1, radiance) in &QUADS {
+        let m = materials.len() as u32;
+        materials.push(Material::emitter(Vec3::splat(radiance), false));
+        // Clockwise seen from above = front face pointing down at the plane.
+        let [a, b, c, d] = quad_corners(x0, y0, x1, y1, EMITTER_HEIGHT);
+        tris.push(Triangle::flat([a, c, b], m));
+        tris.push(Triangle::flat([a, d, c], m));
+    }
+    let camera = Camera::from_world_matrix(
+        "top".into(),
+        &Mat4::from_translation(Vec3::new(0.0, 0.0, CAMERA_HEIGHT)),
+        YFOV_DEG.to_radians(),
+        None,
+    )
+    .unwrap();
+    Scene::new(tris, materials, Some(camera)).unwrap()
+}
+
+/// Irradiance at x (normal +Z) from a polygon of radiance L, wholly above the tangent plane:
+/// E = (L/2)·|Σ Θ_i (n · Γ_i)| with Θ_i the angle between u_i, u_{i+1} and Γ_i their unit cross.
+fn lambert_irradiance(x: DVec3, polygon: &[DVec3], radiance: f64) -> f64 {
+    let u: Vec<DVec3> = polygon.iter().map(|v| (*v - x).normalize()).collect();
+    let sum: f64 = (0..u.len())
+        .map(|i| {
+            let (a, b) = (u[i], u[(i + 1) % u.len()]);
+            a.dot(b).clamp(-1.0, 1.0).acos() * a.cross(b).normalize().z
+        })
+        .sum();
+    0.5 * radiance * sum.abs()
+}
+
+/// ρ/π · E at plane point (x, y), summed over the emitters.
+fn exitant_radiance(x: f64, y: f64) -> f64 {
+    let p = DVec3::new(x, y, 0.0);
+    QUADS
+        .iter()
+        .map(|&(x0, y0, x1, y1, l)| {
+            let poly = quad_corners(x0, y0, x1, y1, EMITTER_HEIGHT).map(|v| v.as_dvec3());
+            lambert_irradiance(p, &poly, l as f64)
+        })
+        .sum::<f64>()
+        * RHO as f64
+        / std::f64::consts::PI
+}
+
+/// The expected pixel: the box filter's average of exitant radiance over the pixel's footprint.
+fn expected_pixel(i: u32, j: u32) -> f64 {
+    let t = (0.5 * YFOV_DEG.to_radians() as f64).tan();
+    let h = CAMERA_HEIGHT as f64;
+    let q = 8;
+    let mut sum = 0.0;
+    for a in 0..q {
+        for b in 0..q {
+            let u = (a as f64 + 0.5) / q as f64;
+            let v = (b as f64 + 0.5) / q as f64;
+            let sx = (2.0 * (i as f64 + u) / SIZE as f64 - 1.0) * t;
+            let sy = (1.0 - 2.0 * (j as f64 + v) / SIZE as f64) * t;
+            sum += exitant_radiance(h * sx, h * sy);
+        }
+    }
+    sum / (q * q) as f64
+}
+
+/// Renders and checks every pixel within 5σ (σ from its own sample variance) and the image mean
+/// within 0.5% and within 5σ.
+fn check(selector: SelectorKind, strategy: Strategy, k: u32, n: u32, spp: u32) {
+    let scene = scene();
+    let accel = Accel::build(&scene);
+    let lights = Lights::from_scene(&scene);
+    let selector_built = LightSelector::new(selector, &lights).unwrap();
+    let estimator = Estimator {
+        scene: &scene,
+        accel: &accel,
+        lights: &lights,
+        selector: Some(&selector_built),
+        strategy,
+        k,
+        n,
+    };
+    let camera = scene.camera.clone().unwrap();
+    let opts = RenderOptions { width: SIZE, height: SIZE, spp, seed: 11 };
+    let (film, stats) = render(&estimator, &camera, &opts);
+    assert_eq!(stats.nan_samples + stats.inf_samples, 0);
+
+    let label = format!("{selector:?} {strategy:?} {k}x{n}");
+    let (mut sum, mut expected_sum, mut var_sum) = (0.0, 0.0, 0.0);
+    for j in 0..SIZE {
+        for i in 0..SIZE {
+            let px = &film.pixels[(j * SIZE + i) as usize];
+            let expected = expected_pixel(i, j);
+            let sigma = px.variance_of_mean().x.sqrt();
+            assert!(sigma > 0.0, "{label}: pixel ({i},{j}) has no variance estimate");
+            assert!(
+                (px.mean.x - expected).abs() < 5.0 * sigma,
+                "{label}: pixel ({i},{j}) = {} but Lambert's formula gives {expected} (σ {sigma})",
+                px.mean.x
+            );
+            // Grey light on a grey plane: all channels agree.
+            assert_eq!(px.mean.x, px.mean.z);
+            sum += px.mean.x;
+            expected_sum += expected;
+            var_sum += px.variance_of_mean().x;
+        }
+    }
+    let rel = (sum - expected_sum).abs() / expected_sum;
+    let sigma_rel = var_sum.sqrt() / expected_sum;
+    assert!(rel < 5.0 * sigma_rel, "{label}: image mean off by {rel:.2e} (σ {sigma_rel:.2e})");
+    assert!(rel < 0.005, "{label}: image mean off by {:.3}%", 100.0 * rel);
+}
+
+#[test]
+fn camera_sees_only_the_plane() {
+    // The premise of the test: no emitter inside the view frustum at the emitters' height.
+    let reach = (CAMERA_HEIGHT - EMITTER_HEIGHT) * (0.5 * YFOV_DEG.to_radians()).tan();
+    for &(x0, y0, x1, y1, _) in &QUADS {
+        let outside = x0 > reach || x1 < -reach || y0 > reach || y1 < -reach;
+        assert!(outside, "emitter ({x0},{y0})..({x1},{y1}) is visible");
+    }
+}
+
+#[test]
+fn emitters_do_not_overlap() {
+    // Coplanar overlapping emitters would hide each other from traced rays but not from
+    // Lambert's formula (which sums them).
+    for (a, qa) in QUADS.iter().enumerate() {
+        for qb in &QUADS[a + 1..] {
+            let apart = qa.2 <= qb.0 || qb.2 <= qa.0 || qa.3 <= qb.1 || qb.3 <= qa.1;
+            assert!(apart, "{qa:?} overlaps {qb:?}");
+        }
+    }
+}
+
+#[test]
+fn power_selection_matches_lambert_for_every_kxn() {
+    for (k, n) in [(1, 1), (4, 1), (1, 4)] {
+        check(SelectorKind::Power, Strategy::LightArea, k, n, 1024);
+    }
+}
+
+#[test]
+fn uniform_selection_matches_lambert_for_every_kxn() {
+    for (k, n) in [(1, 1), (4, 1), (1, 4)] {
+        check(SelectorKind::Uniform, Strategy::LightArea, k, n, 1024);
+    }
+}
+
+#[test]
+fn cosine_hemisphere_matches_lambert() {
+    check(SelectorKind::Power, Strategy::HemisphereCosine, 1, 1, 16384);
+}
+
+#[test]
+fn uniform_hemisphere_matches_lambert() {
+    check(SelectorKind::Power, Strategy::HemisphereUniform, 1, 1, 16384);
+}

@@ -1,0 +1,230 @@
+//! Whole-program behaviour of the `manylights` binary: bad input gives a clear message naming
+//! the file and element, a documented non-zero exit code and no output file; the image does not
+//! depend on the thread count.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+const EXIT_FAILURE: i32 = 1;
+const EXIT_BAD_INPUT: i32 = 3;
+
+fn manylights(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_manylights")).args(args).output().expect("binary runs")
+}
+
+fn repo(path: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(path).to_string_lossy().into_owned()
+}
+
+/// Renders `scene` into `dir`/out.exr and returns (exit code, stderr, output path).
+fn render_into(dir: &Path, scene: &str, extra: &[&str]) -> (i32, String, PathBuf) {
+    let out = dir.join("out.exr");
+    let mut args = vec!["render", scene, "-o", out.to_str().unwrap(), "--width", "16", "--spp", "2"];
+    args.extend_from_slice(extra);
+    let o = manylights(&args);
+    (o.status.code().unwrap_or(-1), String::from_utf8_lossy(&o.stderr).into_owned(), out)
+}
+
+/// Writes `name`.gltf with one triangle-list mesh whose buffer is `name`.bin (positions as f32
+/// VEC3 then u32 indices). `write_bin` false leaves the buffer file missing.
+fn write_gltf(dir: &Path, name: &str, positions: &[f32], indices: &[u32], write_bin: bool) -> String {
+    let mut bin: Vec<u8> = positions.iter().flat_map(|f| f.to_le_bytes()).collect();
+    let pos_len = bin.len();
+    bin.extend(indices.iter().flat_map(|i| i.to_le_bytes()));
+    let json = serde_json::json!({
+        "asset": {"version": "2.0"},
+        "scene": 0,
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0}],
+        "meshes": [{"name": "plate", "primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}],
+        "buffers": [{"uri": format!("{name}.bin"), "byteLength": bin.len()}],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": pos_len},
+            {"buffer": 0, "byteOffset": pos_len, "byteLength": bin.len() - pos_len}
+        ],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": positions.len() / 3, "type": "VEC3",
+             "min": [0, 0, 0], "max": [1, 1, 0]},
+            {"bufferView": 1, "componentType": 5125, "count": indices.len(), "type": "SCALAR"}
+        ]
+    });
+    if write_bin {
+        std::fs::write(dir.join(format!("{name}.bin")), &bin).unwrap();
+    }
+    let path = dir.join(format!("{name}.gltf"));
+    std::fs::write(&path, serde_json::to_vec_pretty(&json).unwrap()).unwrap();
+    path.to_string_lossy().into_owned()
+}
+
+const TRIANGLE: [f32; 9] = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0];
+
+fn assert_refused(code: i32, stderr: &str, out: &Path, expected_code: i32, must_mention: &[&str]) {
+    assert_eq!(code, expected_code, "stderr: {stderr}");
+    for m in must_mention {
+        assert!(stderr.contains(m), "message should mention {m:?}: {stderr}");
+    }
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(!out.exists(), "no output file may be written");
+    let leftovers: Vec<_> = std::fs::read_dir(out.parent().unwrap())
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().contains("out."))
+        .collect();
+    assert!(leftovers.is_empty(), "temporary files left: {leftovers:?}");
+}
+
+#[test]
+fn missing_scene_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let missing = dir.path().join("nope.glb");
+    let (code, err, out) = render_into(dir.path(), missing.to_str().unwrap(), &[]);
+    assert_refused(code, &err, &out, EXIT_BAD_INPUT, &["nope.glb", "cannot read"]);
+}
+
+#[test]
+fn file_that_is_not_gltf() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("notes.gltf");
+    std::fs::write(&path, "this is not a scene").unwrap();
+    let (code, err, out) = render_into(dir.path(), path.to_str().unwrap(), &[]);
+    assert_refused(code, &err, &out, EXIT_BAD_INPUT, &["notes.gltf", "not a valid glTF"]);
+}
+
+#[test]
+fn missing_buffer_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write_gltf(dir.path(), "lost", &TRIANGLE, &[0, 1, 2], false);
+    let (code, err, out) = render_into(dir.path(), &scene, &[]);
+    assert_refused(code, &err, &out, EXIT_BAD_INPUT, &["lost.gltf", "buffer 0", "lost.bin"]);
+}
+
+#[test]
+fn nan_positions() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut positions = TRIANGLE;
+    positions[4] = f32::NAN;
+    let scene = write_gltf(dir.path(), "nan", &positions, &[0, 1, 2], true);
+    let (code, err, out) = render_into(dir.path(), &scene, &[]);
+    assert_refused(
+        code,
+        &err,
+        &out,
+        EXIT_BAD_INPUT,
+        &["nan.gltf", "mesh 0 'plate' primitive 0", "POSITION (accessor 0) vertex 1 is not finite"],
+    );
+}
+
+#[test]
+fn indices_past_the_vertex_count() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write_gltf(dir.path(), "idx", &TRIANGLE, &[0, 1, 7], true);
+    let (code, err, out) = render_into(dir.path(), &scene, &[]);
+    assert_refused(
+        code,
+        &err,
+        &out,
+        EXIT_BAD_INPUT,
+        &["idx.gltf", "mesh 0 'plate'", "index 7 at position 2 of accessor 1 is past the vertex count 3"],
+    );
+}
+
+#[test]
+fn unwritable_output_folder() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("missing-folder").join("out.exr");
+    let o = manylights(&["render", &repo("scenes/cornell.glb"), "-o", out.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(EXIT_FAILURE), "{err}");
+    assert!(err.contains("missing-folder") && err.contains("does not exist"), "{err}");
+    assert!(!out.exists());
+}
+
+#[test]
+fn usage_errors_exit_with_2() {
+    let o = manylights(&["render", "x.glb", "-o", "y.exr", "--spp", "0"]);
+    assert_eq!(o.status.code(), Some(2));
+    let o = manylights(&["render", "x.glb", "-o", "y.exr", "--selector", "psychic"]);
+    assert_eq!(o.status.code(), Some(2));
+}
+
+#[test]
+fn image_is_bit_identical_for_one_and_two_threads() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut files = Vec::new();
+    for threads in ["1", "2"] {
+        let out = dir.path().join(format!("t{threads}.exr"));
+        let o = manylights(&[
+            "render",
+            &repo("scenes/town.glb"),
+            "-o",
+            out.to_str().unwrap(),
+            "--width",
+            "40",
+            "--spp",
+            "3",
+            "--k",
+            "2",
+            "--threads",
+            threads,
+            "--variance",
+            "--seed",
+            "5",
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        files.push(std::fs::read(&out).unwrap());
+    }
+    assert_eq!(files[0], files[1]);
+    // And a different seed gives a different image (the comparison above is not vacuous).
+    let out = dir.path().join("other-seed.exr");
+    let o = manylights(&[
+        "render",
+        &repo("scenes/town.glb"),
+        "-o",
+        out.to_str().unwrap(),
+        "--width",
+        "40",
+        "--spp",
+        "3",
+        "--k",
+        "2",
+        "--variance",
+        "--seed",
+        "6",
+    ]);
+    assert!(o.status.success());
+    assert_ne!(std::fs::read(&out).unwrap(), files[0]);
+}
+
+#[test]
+fn render_writes_exr_png_and_json_summary() {
+    let dir = tempfile::tempdir().unwrap();
+    let exr = dir.path().join("c.exr");
+    let png = dir.path().join("c.png");
+    let json = dir.path().join("c.json");
+    let o = manylights(&[
+        "render",
+        &repo("scenes/cornell.glb"),
+        "-o",
+        exr.to_str().unwrap(),
+        "--width",
+        "32",
+        "--spp",
+        "4",
+        "--png",
+        png.to_str().unwrap(),
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    for key in ["load", "bvh build", "light build", "render", "rays", "camera samples/s", "NaN"] {
+        assert!(stdout.contains(key), "summary lacks {key:?}: {stdout}");
+    }
+    let summary: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    assert_eq!(summary["width"], 32);
+    assert_eq!(summary["height"], 32);
+    assert_eq!(summary["stats"]["camera_samples"], 32 * 32 * 4);
+    assert_eq!(summary["lights"], 2);
+    assert!(summary["seconds"]["render"].as_f64().unwrap() > 0.0);
+    assert!(png.exists() && exr.exists());
+}
