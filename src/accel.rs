@@ -41,7 +41,11 @@ impl Accel {
             BvhBuildParams::medium_build(),
             &mut std::time::Duration::default(),
         );
-        let triangles = bvh.primitive_indices.iter().map(|&i| tris[i as usize]).collect();
+        let triangles = bvh
+            .primitive_indices
+            .iter()
+            .map(|&i| tris[i as usize])
+            .collect();
         Accel { bvh, triangles }
     }
 
@@ -55,22 +59,69 @@ impl Accel {
     /// The nearest intersection with t in [0, tmax) along a unit direction.
     #[inline]
     pub fn closest_hit(&self, origin: Vec3, dir: Vec3, tmax: f32) -> Option<Hit> {
-        let ray = Ray::new(origin.into(), dir.into(), 0.0, tmax);
+        let ray = guarded_ray(origin, dir, tmax);
         let mut hit = RayHit::none();
-        if !self.bvh.ray_traverse(ray, &mut hit, |r, id| self.triangles[id].intersect(r)) {
+        if !self
+            .bvh
+            .ray_traverse(ray, &mut hit, |r, id| self.triangles[id].intersect(r))
+        {
             return None;
         }
         let id = hit.primitive_id as usize;
         let (b1, b2) = barycentrics(&self.triangles[id], origin, dir);
-        Some(Hit { triangle: self.bvh.primitive_indices[id], t: hit.t, b1, b2 })
+        let t = hit.t - NODE_CULL_GUARD;
+        Some(Hit {
+            triangle: self.bvh.primitive_indices[id],
+            t,
+            b1,
+            b2,
+        })
+    }
+
+    /// Whether the segment from surface point `a` (unit normal `na` on the segment's side) to
+    /// surface point `b` (unit normal `nb` on the segment's side) is blocked. Both ends are moved
+    /// off their surfaces, so neither the receiver nor the emitter occludes itself.
+    #[inline]
+    pub fn segment_occluded(&self, a: Vec3, na: Vec3, b: Vec3, nb: Vec3) -> bool {
+        let from = offset_ray_origin(a, na);
+        let to = offset_ray_origin(b, nb);
+        let d = to - from;
+        let len = d.length();
+        len > 0.0 && self.occluded(from, d / len, len)
     }
 
     /// Whether anything lies on the segment origin + t·dir, t ∈ [0, tmax).
     #[inline]
     pub fn occluded(&self, origin: Vec3, dir: Vec3, tmax: f32) -> bool {
-        let ray = Ray::new(origin.into(), dir.into(), 0.0, tmax);
-        !self.bvh.ray_traverse_miss(ray, |r, id| self.triangles[id].intersect(r))
+        let ray = guarded_ray(origin, dir, tmax);
+        !self
+            .bvh
+            .ray_traverse_miss(ray, |r, id| self.triangles[id].intersect(r))
     }
+}
+
+/// obvhs's node test clamps a child box's entry distance to a fixed 1e-4 (ignoring
+/// `ray.tmin`), so a box the ray leaves within 1e-4 of its origin is culled: a wall 5e-5 m
+/// from a shading point near a corner would not block its shadow rays. Every ray therefore
+/// starts this far behind its true origin, with the triangle test's tmin set to the same
+/// distance, so nothing before the true origin is hit and nothing after it is culled.
+const NODE_CULL_GUARD: f32 = 1e-3;
+
+/// The obvhs ray for the segment origin + t·dir, t ∈ [0, tmax), shifted back by the guard.
+///
+/// Direction components of −0.0 become +0.0: obvhs picks a child order from `dir < 0.0` (false
+/// for −0.0) but inverts −0.0 to a large negative number, and the two disagree, so an
+/// axis-aligned ray such as −Z would miss every box.
+#[inline]
+fn guarded_ray(origin: Vec3, dir: Vec3, tmax: f32) -> Ray {
+    let dir = dir + Vec3::ZERO;
+    let start = origin - NODE_CULL_GUARD * dir;
+    Ray::new(
+        start.into(),
+        dir.into(),
+        NODE_CULL_GUARD,
+        tmax + NODE_CULL_GUARD,
+    )
 }
 
 /// Barycentric weights (b1, b2) of vertices 1 and 2 where the line origin + t·dir meets the
@@ -108,8 +159,18 @@ pub fn offset_ray_origin(p: Vec3, n: Vec3) -> Vec3 {
         nudge(p.y, offset_int.y),
         nudge(p.z, offset_int.z),
     );
-    let pick = |x: f32, xi: f32, nx: f32| if x.abs() < ORIGIN { x + FLOAT_SCALE * nx } else { xi };
-    Vec3::new(pick(p.x, p_int.x, n.x), pick(p.y, p_int.y, n.y), pick(p.z, p_int.z, n.z))
+    let pick = |x: f32, xi: f32, nx: f32| {
+        if x.abs() < ORIGIN {
+            x + FLOAT_SCALE * nx
+        } else {
+            xi
+        }
+    };
+    Vec3::new(
+        pick(p.x, p_int.x, n.x),
+        pick(p.y, p_int.y, n.y),
+        pick(p.z, p_int.z, n.z),
+    )
 }
 
 #[cfg(test)]
@@ -118,7 +179,11 @@ mod tests {
     use crate::scene::{Material, Triangle};
 
     fn quad_scene(z: f32) -> Scene {
-        let p = [Vec3::new(-1.0, -1.0, z), Vec3::new(1.0, -1.0, z), Vec3::new(1.0, 1.0, z)];
+        let p = [
+            Vec3::new(-1.0, -1.0, z),
+            Vec3::new(1.0, -1.0, z),
+            Vec3::new(1.0, 1.0, z),
+        ];
         let q = [p[0], p[2], Vec3::new(-1.0, 1.0, z)];
         let tris = vec![Triangle::flat(p, 0), Triangle::flat(q, 0)];
         Scene::new(tris, vec![Material::default()], None).unwrap()
@@ -130,7 +195,9 @@ mod tests {
         let accel = Accel::build(&scene);
         let origin = Vec3::new(0.3, -0.4, 1.0);
         let dir = Vec3::new(0.1, 0.2, -1.0).normalize();
-        let hit = accel.closest_hit(origin, dir, f32::INFINITY).expect("hits the quad");
+        let hit = accel
+            .closest_hit(origin, dir, f32::INFINITY)
+            .expect("hits the quad");
         let [p0, p1, p2] = scene.triangles[hit.triangle as usize].positions;
         let from_bary = p0 + hit.b1 * (p1 - p0) + hit.b2 * (p2 - p0);
         assert!((from_bary - (origin + hit.t * dir)).length() < 1e-5);
@@ -156,10 +223,13 @@ mod tests {
             // Grazing directions leaving the surface must not hit it again.
             for dz in [1e-3f32, 1e-2, 0.5] {
                 let d = Vec3::new(1.0, 0.3, dz).normalize();
-                assert!(!accel.occluded(o, d, 10.0 * scale), "scale {scale}, dz {dz}");
+                assert!(
+                    !accel.occluded(o, d, 10.0 * scale),
+                    "scale {scale}, dz {dz}"
+                );
             }
-            // And a ray going back through the surface does hit it.
-            assert!(accel.occluded(o, -Vec3::Z, scale));
+            // And a ray going back through the surface does hit it (−Z has −0.0 components).
+            assert!(accel.occluded(o, -Vec3::Z, scale), "scale {scale}: o {o}");
         }
     }
 }

@@ -68,11 +68,17 @@ pub struct Film {
 
 impl Film {
     pub fn mean_rgb(&self) -> Vec<[f32; 3]> {
-        self.pixels.iter().map(|p| p.mean.as_vec3().to_array()).collect()
+        self.pixels
+            .iter()
+            .map(|p| p.mean.as_vec3().to_array())
+            .collect()
     }
 
     pub fn variance_of_mean_rgb(&self) -> Vec<[f32; 3]> {
-        self.pixels.iter().map(|p| p.variance_of_mean().as_vec3().to_array()).collect()
+        self.pixels
+            .iter()
+            .map(|p| p.variance_of_mean().as_vec3().to_array())
+            .collect()
     }
 
     /// Mean over all pixels of the per-channel-averaged pixel value (f64).
@@ -111,7 +117,10 @@ mod tests {
     #[test]
     fn classify_separates_nan_and_inf() {
         assert_eq!(classify(Vec3::new(1.0, f32::NAN, 0.0)), SampleClass::Nan);
-        assert_eq!(classify(Vec3::new(f32::INFINITY, 0.0, 0.0)), SampleClass::Infinite);
+        assert_eq!(
+            classify(Vec3::new(f32::INFINITY, 0.0, 0.0)),
+            SampleClass::Infinite
+        );
         assert_eq!(classify(Vec3::ONE), SampleClass::Finite);
     }
 }

@@ -104,7 +104,10 @@ mod tests {
             }
             let mean = s / count as f64;
             let sigma = ((s2 / count as f64 - mean * mean) / count as f64).sqrt();
-            assert!(mean < 1.0 + 5.0 * sigma && mean > lower, "roughness {roughness}: {mean}");
+            assert!(
+                mean < 1.0 + 5.0 * sigma && mean > lower,
+                "roughness {roughness}: {mean}"
+            );
         }
     }
 }

@@ -26,7 +26,12 @@ const QUADS: [(f32, f32, f32, f32, f32); 4] = [
 const EMITTER_HEIGHT: f32 = 0.6;
 
 fn quad_corners(x0: f32, y0: f32, x1: f32, y1: f32, z: f32) -> [Vec3; 4] {
-    [Vec3::new(x0, y0, z), Vec3::new(x1, y0, z), Vec3::new(x1, y1, z), Vec3::new(x0, y1, z)]
+    [
+        Vec3::new(x0, y0, z),
+        Vec3::new(x1, y0, z),
+        Vec3::new(x1, y1, z),
+        Vec3::new(x0, y1, z),
+    ]
 }
 
 fn scene() -> Scene {
@@ -114,7 +119,12 @@ fn check(selector: SelectorKind, strategy: Strategy, k: u32, n: u32, spp: u32) {
         n,
     };
     let camera = scene.camera.clone().unwrap();
-    let opts = RenderOptions { width: SIZE, height: SIZE, spp, seed: 11 };
+    let opts = RenderOptions {
+        width: SIZE,
+        height: SIZE,
+        spp,
+        seed: 11,
+    };
     let (film, stats) = render(&estimator, &camera, &opts);
     assert_eq!(stats.nan_samples + stats.inf_samples, 0);
 
@@ -125,7 +135,10 @@ fn check(selector: SelectorKind, strategy: Strategy, k: u32, n: u32, spp: u32) {
             let px = &film.pixels[(j * SIZE + i) as usize];
             let expected = expected_pixel(i, j);
             let sigma = px.variance_of_mean().x.sqrt();
-            assert!(sigma > 0.0, "{label}: pixel ({i},{j}) has no variance estimate");
+            assert!(
+                sigma > 0.0,
+                "{label}: pixel ({i},{j}) has no variance estimate"
+            );
             assert!(
                 (px.mean.x - expected).abs() < 5.0 * sigma,
                 "{label}: pixel ({i},{j}) = {} but Lambert's formula gives {expected} (σ {sigma})",
@@ -140,8 +153,15 @@ fn check(selector: SelectorKind, strategy: Strategy, k: u32, n: u32, spp: u32) {
     }
     let rel = (sum - expected_sum).abs() / expected_sum;
     let sigma_rel = var_sum.sqrt() / expected_sum;
-    assert!(rel < 5.0 * sigma_rel, "{label}: image mean off by {rel:.2e} (σ {sigma_rel:.2e})");
-    assert!(rel < 0.005, "{label}: image mean off by {:.3}%", 100.0 * rel);
+    assert!(
+        rel < 5.0 * sigma_rel,
+        "{label}: image mean off by {rel:.2e} (σ {sigma_rel:.2e})"
+    );
+    assert!(
+        rel < 0.005,
+        "{label}: image mean off by {:.3}%",
+        100.0 * rel
+    );
 }
 
 #[test]
@@ -187,5 +207,11 @@ fn cosine_hemisphere_matches_lambert() {
 
 #[test]
 fn uniform_hemisphere_matches_lambert() {
-    check(SelectorKind::Power, Strategy::HemisphereUniform, 1, 1, 16384);
+    check(
+        SelectorKind::Power,
+        Strategy::HemisphereUniform,
+        1,
+        1,
+        16384,
+    );
 }

@@ -9,25 +9,50 @@ const EXIT_FAILURE: i32 = 1;
 const EXIT_BAD_INPUT: i32 = 3;
 
 fn manylights(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_manylights")).args(args).output().expect("binary runs")
+    Command::new(env!("CARGO_BIN_EXE_manylights"))
+        .args(args)
+        .output()
+        .expect("binary runs")
 }
 
 fn repo(path: &str) -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(path).to_string_lossy().into_owned()
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join(path)
+        .to_string_lossy()
+        .into_owned()
 }
 
 /// Renders `scene` into `dir`/out.exr and returns (exit code, stderr, output path).
 fn render_into(dir: &Path, scene: &str, extra: &[&str]) -> (i32, String, PathBuf) {
     let out = dir.join("out.exr");
-    let mut args = vec!["render", scene, "-o", out.to_str().unwrap(), "--width", "16", "--spp", "2"];
+    let mut args = vec![
+        "render",
+        scene,
+        "-o",
+        out.to_str().unwrap(),
+        "--width",
+        "16",
+        "--spp",
+        "2",
+    ];
     args.extend_from_slice(extra);
     let o = manylights(&args);
-    (o.status.code().unwrap_or(-1), String::from_utf8_lossy(&o.stderr).into_owned(), out)
+    (
+        o.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+        out,
+    )
 }
 
 /// Writes `name`.gltf with one triangle-list mesh whose buffer is `name`.bin (positions as f32
 /// VEC3 then u32 indices). `write_bin` false leaves the buffer file missing.
-fn write_gltf(dir: &Path, name: &str, positions: &[f32], indices: &[u32], write_bin: bool) -> String {
+fn write_gltf(
+    dir: &Path,
+    name: &str,
+    positions: &[f32],
+    indices: &[u32],
+    write_bin: bool,
+) -> String {
     let mut bin: Vec<u8> = positions.iter().flat_map(|f| f.to_le_bytes()).collect();
     let pos_len = bin.len();
     bin.extend(indices.iter().flat_map(|i| i.to_le_bytes()));
@@ -78,7 +103,13 @@ fn missing_scene_file() {
     let dir = tempfile::tempdir().unwrap();
     let missing = dir.path().join("nope.glb");
     let (code, err, out) = render_into(dir.path(), missing.to_str().unwrap(), &[]);
-    assert_refused(code, &err, &out, EXIT_BAD_INPUT, &["nope.glb", "cannot read"]);
+    assert_refused(
+        code,
+        &err,
+        &out,
+        EXIT_BAD_INPUT,
+        &["nope.glb", "cannot read"],
+    );
 }
 
 #[test]
@@ -87,7 +118,13 @@ fn file_that_is_not_gltf() {
     let path = dir.path().join("notes.gltf");
     std::fs::write(&path, "this is not a scene").unwrap();
     let (code, err, out) = render_into(dir.path(), path.to_str().unwrap(), &[]);
-    assert_refused(code, &err, &out, EXIT_BAD_INPUT, &["notes.gltf", "not a valid glTF"]);
+    assert_refused(
+        code,
+        &err,
+        &out,
+        EXIT_BAD_INPUT,
+        &["notes.gltf", "not a valid glTF"],
+    );
 }
 
 #[test]
@@ -95,7 +132,13 @@ fn missing_buffer_file() {
     let dir = tempfile::tempdir().unwrap();
     let scene = write_gltf(dir.path(), "lost", &TRIANGLE, &[0, 1, 2], false);
     let (code, err, out) = render_into(dir.path(), &scene, &[]);
-    assert_refused(code, &err, &out, EXIT_BAD_INPUT, &["lost.gltf", "buffer 0", "lost.bin"]);
+    assert_refused(
+        code,
+        &err,
+        &out,
+        EXIT_BAD_INPUT,
+        &["lost.gltf", "buffer 0", "lost.bin"],
+    );
 }
 
 #[test]
@@ -110,7 +153,11 @@ fn nan_positions() {
         &err,
         &out,
         EXIT_BAD_INPUT,
-        &["nan.gltf", "mesh 0 'plate' primitive 0", "POSITION (accessor 0) vertex 1 is not finite"],
+        &[
+            "nan.gltf",
+            "mesh 0 'plate' primitive 0",
+            "POSITION (accessor 0) vertex 1 is not finite",
+        ],
     );
 }
 
@@ -124,7 +171,11 @@ fn indices_past_the_vertex_count() {
         &err,
         &out,
         EXIT_BAD_INPUT,
-        &["idx.gltf", "mesh 0 'plate'", "index 7 at position 2 of accessor 1 is past the vertex count 3"],
+        &[
+            "idx.gltf",
+            "mesh 0 'plate'",
+            "index 7 at position 2 of accessor 1 is past the vertex count 3",
+        ],
     );
 }
 
@@ -132,10 +183,18 @@ fn indices_past_the_vertex_count() {
 fn unwritable_output_folder() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("missing-folder").join("out.exr");
-    let o = manylights(&["render", &repo("scenes/cornell.glb"), "-o", out.to_str().unwrap()]);
+    let o = manylights(&[
+        "render",
+        &repo("scenes/cornell.glb"),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(EXIT_FAILURE), "{err}");
-    assert!(err.contains("missing-folder") && err.contains("does not exist"), "{err}");
+    assert!(
+        err.contains("missing-folder") && err.contains("does not exist"),
+        "{err}"
+    );
     assert!(!out.exists());
 }
 
@@ -217,10 +276,19 @@ fn render_writes_exr_png_and_json_summary() {
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let stdout = String::from_utf8_lossy(&o.stdout);
-    for key in ["load", "bvh build", "light build", "render", "rays", "camera samples/s", "NaN"] {
+    for key in [
+        "load",
+        "bvh build",
+        "light build",
+        "render",
+        "rays",
+        "camera samples/s",
+        "NaN",
+    ] {
         assert!(stdout.contains(key), "summary lacks {key:?}: {stdout}");
     }
-    let summary: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    let summary: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
     assert_eq!(summary["width"], 32);
     assert_eq!(summary["height"], 32);
     assert_eq!(summary["stats"]["camera_samples"], 32 * 32 * 4);

@@ -14,7 +14,13 @@ use manylights::select::{LightSelector, SelectorKind};
 const SIZE: u32 = 32;
 const BLOCK: u32 = 8;
 
-fn render_with(scene: &Scene, accel: &Accel, lights: &Lights, kind: SelectorKind, seed: u64) -> Film {
+fn render_with(
+    scene: &Scene,
+    accel: &Accel,
+    lights: &Lights,
+    kind: SelectorKind,
+    seed: u64,
+) -> Film {
     let selector = LightSelector::new(kind, lights).unwrap();
     let estimator = Estimator {
         scene,
@@ -25,7 +31,12 @@ fn render_with(scene: &Scene, accel: &Accel, lights: &Lights, kind: SelectorKind
         k: 4,
         n: 1,
     };
-    let opts = RenderOptions { width: SIZE, height: SIZE, spp: 1024, seed };
+    let opts = RenderOptions {
+        width: SIZE,
+        height: SIZE,
+        spp: 1024,
+        seed,
+    };
     render(&estimator, scene.camera.as_ref().unwrap(), &opts).0
 }
 
@@ -73,8 +84,16 @@ fn uniform_and_power_converge_to_the_same_image() {
     let n = (blocks * blocks) as f64;
     let sigma = var_total.sqrt() / n;
     let (mu, mp) = (total_u / n, total_p / n);
-    assert!((mu - mp).abs() < 5.0 * sigma, "image mean: uniform {mu} vs power {mp}, σ {sigma}");
+    assert!(
+        (mu - mp).abs() < 5.0 * sigma,
+        "image mean: uniform {mu} vs power {mp}, σ {sigma}"
+    );
     // Power selection should also be the better estimator here (lights span 5 decades).
-    let var = |f: &Film| f.pixels.iter().map(|p| p.variance_of_mean().element_sum()).sum::<f64>();
+    let var = |f: &Film| {
+        f.pixels
+            .iter()
+            .map(|p| p.variance_of_mean().element_sum())
+            .sum::<f64>()
+    };
     println!("image mean uniform {mu:.5} power {mp:.5} σ {sigma:.2e}; variance ratio uniform/power {:.2}", var(&uniform) / var(&power));
 }

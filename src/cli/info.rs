@@ -23,10 +23,20 @@ pub fn run(args: &InfoArgs) -> anyhow::Result<()> {
     let (lo, hi) = scene.bounds();
     println!("scene              {}", args.scene.display());
     println!("triangles          {}", scene.triangles.len());
-    println!("emissive triangles {} ({} two-sided)", lights.len(), two_sided);
-    println!("total power        {:.6e} W (Φ = π·A·luminance, ×2 two-sided)", lights.total_power());
+    println!(
+        "emissive triangles {} ({} two-sided)",
+        lights.len(),
+        two_sided
+    );
+    println!(
+        "total power        {:.6e} W (Φ = π·A·luminance, ×2 two-sided)",
+        lights.total_power()
+    );
     println!("materials          {}", scene.materials.len());
-    println!("bounds             [{:.4}, {:.4}, {:.4}] .. [{:.4}, {:.4}, {:.4}]", lo.x, lo.y, lo.z, hi.x, hi.y, hi.z);
+    println!(
+        "bounds             [{:.4}, {:.4}, {:.4}] .. [{:.4}, {:.4}, {:.4}]",
+        lo.x, lo.y, lo.z, hi.x, hi.y, hi.z
+    );
     match &scene.camera {
         Some(c) => println!(
             "camera             '{}' at [{:.3}, {:.3}, {:.3}] looking [{:.3}, {:.3}, {:.3}], yfov {:.2}°, aspect {}",

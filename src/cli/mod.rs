@@ -13,7 +13,11 @@ pub const EXIT_FAILURE: i32 = 1;
 pub const EXIT_BAD_INPUT: i32 = 3;
 
 #[derive(Parser, Debug)]
-#[command(name = "manylights", version, about = "Direct lighting with many emissive triangles: render and measure")]
+#[command(
+    name = "manylights",
+    version,
+    about = "Direct lighting with many emissive triangles: render and measure"
+)]
 pub struct Cli {
     #[command(subcommand)]
     pub command: Command,

@@ -108,7 +108,9 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         check_output_path(p, "json")?;
     }
     let pool = match args.threads {
-        Some(t) => rayon::ThreadPoolBuilder::new().num_threads(t as usize).build(),
+        Some(t) => rayon::ThreadPoolBuilder::new()
+            .num_threads(t as usize)
+            .build(),
         None => rayon::ThreadPoolBuilder::new().build(),
     }
     .context("cannot start the worker threads")?;
@@ -126,17 +128,28 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
 
 /// Fails early (before a long render) when an output file could never be written.
 fn check_output_path(path: &Path, extension: &str) -> anyhow::Result<()> {
-    if path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref()
+    if path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .as_deref()
         != Some(extension)
     {
-        bail!("output {}: expected a .{extension} file name", path.display());
+        bail!(
+            "output {}: expected a .{extension} file name",
+            path.display()
+        );
     }
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
     };
     if !dir.is_dir() {
-        bail!("output {}: folder {} does not exist", path.display(), dir.display());
+        bail!(
+            "output {}: folder {} does not exist",
+            path.display(),
+            dir.display()
+        );
     }
     Ok(())
 }
@@ -148,7 +161,10 @@ fn render_scene(args: &RenderArgs) -> anyhow::Result<RenderSummary> {
     seconds.load = t.elapsed().as_secs_f64();
 
     let camera = scene.camera.clone().unwrap_or_else(|| {
-        eprintln!("note: {} has no perspective camera; framing its bounds from +Z", args.scene.display());
+        eprintln!(
+            "note: {} has no perspective camera; framing its bounds from +Z",
+            args.scene.display()
+        );
         let (lo, hi) = scene.bounds();
         Camera::framing(lo, hi)
     });
@@ -163,7 +179,10 @@ fn render_scene(args: &RenderArgs) -> anyhow::Result<RenderSummary> {
     let selector = LightSelector::new(args.selector, &lights);
     seconds.light_build = t.elapsed().as_secs_f64();
     if lights.is_empty() {
-        eprintln!("note: {} has no emissive triangles: only black will be rendered", args.scene.display());
+        eprintln!(
+            "note: {} has no emissive triangles: only black will be rendered",
+            args.scene.display()
+        );
     }
 
     let estimator = Estimator {
@@ -175,13 +194,22 @@ fn render_scene(args: &RenderArgs) -> anyhow::Result<RenderSummary> {
         k: args.k,
         n: args.n,
     };
-    let opts = RenderOptions { width, height, spp: args.spp, seed: args.seed };
+    let opts = RenderOptions {
+        width,
+        height,
+        spp: args.spp,
+        seed: args.seed,
+    };
     let t = Instant::now();
     let (film, stats) = render(&estimator, &camera, &opts);
     seconds.render = t.elapsed().as_secs_f64();
 
     let t = Instant::now();
-    let mean = RgbImage { width: width as usize, height: height as usize, pixels: film.mean_rgb() };
+    let mean = RgbImage {
+        width: width as usize,
+        height: height as usize,
+        pixels: film.mean_rgb(),
+    };
     let variance = args.variance.then(|| RgbImage {
         width: width as usize,
         height: height as usize,
@@ -253,6 +281,9 @@ fn print_summary(s: &RenderSummary) {
         mega(s.camera_samples_per_second),
         s.image_mean
     );
-    println!("nan/inf   {} NaN, {} Inf samples (left out of the image)", s.stats.nan_samples, s.stats.inf_samples);
+    println!(
+        "nan/inf   {} NaN, {} Inf samples (left out of the image)",
+        s.stats.nan_samples, s.stats.inf_samples
+    );
     println!("wrote     {}", s.output.display());
 }

@@ -107,7 +107,13 @@ impl Estimator<'_> {
         let ns = (b0 * n0 + hit.b1 * n1 + hit.b2 * n2).normalize_or(ng);
         let ns = if ns.dot(ng) < 0.0 { -ns } else { ns };
         let brdf = Brdf::new(&self.scene.materials[tri.material as usize]);
-        ShadingPoint { p, ng, ns, wo, brdf }
+        ShadingPoint {
+            p,
+            ng,
+            ns,
+            wo,
+            brdf,
+        }
     }
 
     /// Σ over K lights and N area samples of f · Le · V · G / (K · N · p_l · p(x')).
@@ -137,8 +143,12 @@ impl Estimator<'_> {
                 }
                 let g = x.ns.dot(wi) * light.normal.dot(wi).abs() / dist2;
                 counts.shadow_rays += 1;
-                let light_side = if light.normal.dot(wi) < 0.0 { light.normal } else { -light.normal };
-                if self.segment_blocked(x.p, x.ng, x_light, light_side) {
+                let light_side = if light.normal.dot(wi) < 0.0 {
+                    light.normal
+                } else {
+                    -light.normal
+                };
+                if self.accel.segment_occluded(x.p, x.ng, x_light, light_side) {
                     continue;
                 }
                 sum += f * le * g / (k * n * p_l * p_x);
@@ -155,9 +165,10 @@ impl Estimator<'_> {
         let mut sum = Vec3::ZERO;
         for _ in 0..samples {
             let (local, pdf) = match self.strategy {
-                Strategy::HemisphereUniform => {
-                    (warp::uniform_hemisphere(rng.next_2d()), warp::UNIFORM_HEMISPHERE_PDF)
-                }
+                Strategy::HemisphereUniform => (
+                    warp::uniform_hemisphere(rng.next_2d()),
+                    warp::UNIFORM_HEMISPHERE_PDF,
+                ),
                 _ => {
                     let w = warp::cosine_hemisphere(rng.next_2d());
                     (w, warp::cosine_hemisphere_pdf(w.z))
@@ -179,16 +190,5 @@ impl Estimator<'_> {
             sum += f * le * local.z / (samples as f32 * pdf);
         }
         sum
-    }
-
-    /// Whether the segment from surface point `a` (normal `na` toward the segment) to light
-    /// point `b` (normal `nb` toward the segment) is blocked. Both ends are moved off their
-    /// surfaces so that neither the receiver nor the emitter occludes itself.
-    fn segment_blocked(&self, a: Vec3, na: Vec3, b: Vec3, nb: Vec3) -> bool {
-        let from = offset_ray_origin(a, na);
-        let to = offset_ray_origin(b, nb);
-        let d = to - from;
-        let len = d.length();
-        len > 0.0 && self.accel.occluded(from, d / len, len)
     }
 }

@@ -43,14 +43,19 @@ impl RenderStats {
 pub fn render(estimator: &Estimator, camera: &Camera, opts: &RenderOptions) -> (Film, RenderStats) {
     let (w, h) = (opts.width, opts.height);
     let tiles_x = w.div_ceil(TILE);
-    let tiles: Vec<(u32, u32)> =
-        (0..h.div_ceil(TILE)).flat_map(|ty| (0..tiles_x).map(move |tx| (tx, ty))).collect();
+    let tiles: Vec<(u32, u32)> = (0..h.div_ceil(TILE))
+        .flat_map(|ty| (0..tiles_x).map(move |tx| (tx, ty)))
+        .collect();
     let rendered: Vec<(Vec<PixelStats>, RenderStats)> = tiles
         .par_iter()
         .map(|&(tx, ty)| render_tile(estimator, camera, opts, tx, ty))
         .collect();
 
-    let mut film = Film { width: w, height: h, pixels: vec![PixelStats::default(); (w * h) as usize] };
+    let mut film = Film {
+        width: w,
+        height: h,
+        pixels: vec![PixelStats::default(); (w * h) as usize],
+    };
     let mut stats = RenderStats::default();
     for (&(tx, ty), (pixels, tile_stats)) in tiles.iter().zip(&rendered) {
         stats.add(tile_stats);

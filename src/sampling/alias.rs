@@ -205,7 +205,11 @@ mod tests {
             .map(|i| {
                 let is_zero = i > 0 && uniform(&mut rng) < zero_fraction;
                 let w = 10f64.powf(-12.0 + 24.0 * uniform(&mut rng));
-                if is_zero { 0.0 } else { w }
+                if is_zero {
+                    0.0
+                } else {
+                    w
+                }
             })
             .collect()
     }
@@ -218,7 +222,10 @@ mod tests {
             ("two, one zero", vec![0.0, 7.0]),
             ("two, extreme", vec![1e-12, 1e12]),
             ("1,000 log-uniform", log_uniform_weights(1_000, 0.05, 1)),
-            ("1,000,000 log-uniform", log_uniform_weights(1_000_000, 0.05, 2)),
+            (
+                "1,000,000 log-uniform",
+                log_uniform_weights(1_000_000, 0.05, 2),
+            ),
         ]
     }
 
@@ -274,7 +281,10 @@ mod tests {
         for (name, weights) in test_tables() {
             let table = AliasTable::new(&weights).unwrap();
             for (i, bin) in table.bins.iter().enumerate() {
-                assert!(weights[bin.alias as usize] > 0.0, "{name}: bin {i} aliases a zero");
+                assert!(
+                    weights[bin.alias as usize] > 0.0,
+                    "{name}: bin {i} aliases a zero"
+                );
                 if weights[i] == 0.0 {
                     assert_eq!(bin.threshold, 0.0, "{name}: zero-weight bin {i}");
                 }
@@ -363,6 +373,11 @@ mod tests {
             assert_eq!(i, table.sample(u));
             assert_eq!(p, table.pmf(i));
         }
+    }
+
+    #[test]
+    fn bin_is_24_bytes() {
+        assert_eq!(std::mem::size_of::<Bin>(), 24);
     }
 
     #[test]

@@ -126,7 +126,12 @@ mod tests {
 
     #[test]
     fn frame_is_orthonormal() {
-        for n in [Vec3::Z, -Vec3::Z, Vec3::X, Vec3::new(0.3, -0.5, 0.81).normalize()] {
+        for n in [
+            Vec3::Z,
+            -Vec3::Z,
+            Vec3::X,
+            Vec3::new(0.3, -0.5, 0.81).normalize(),
+        ] {
             let f = Frame::new(n);
             assert!((f.t.dot(f.b)).abs() < 1e-6 && (f.t.dot(n)).abs() < 1e-6);
             assert!((f.t.cross(f.b) - n).length() < 1e-5);

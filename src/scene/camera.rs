@@ -39,7 +39,15 @@ impl Camera {
             && yfov.is_finite()
             && yfov > 0.0
             && yfov < std::f32::consts::PI;
-        valid.then_some(Camera { name, position, right, up, forward, yfov, aspect_ratio })
+        valid.then_some(Camera {
+            name,
+            position,
+            right,
+            up,
+            forward,
+            yfov,
+            aspect_ratio,
+        })
     }
 
     /// A camera that frames the box `lo..hi` from its +Z side (used when a file has no camera).
@@ -58,7 +66,10 @@ impl Camera {
     /// file gives an aspect ratio, else square.
     pub fn resolution(&self, width: u32, height: Option<u32>) -> (u32, u32) {
         let h = height.unwrap_or_else(|| {
-            let aspect = self.aspect_ratio.filter(|a| a.is_finite() && *a > 0.0).unwrap_or(1.0);
+            let aspect = self
+                .aspect_ratio
+                .filter(|a| a.is_finite() && *a > 0.0)
+                .unwrap_or(1.0);
             ((width as f32 / aspect).round() as u32).max(1)
         });
         (width, h)
@@ -85,7 +96,10 @@ mod tests {
         let d = cam.direction(50.0, 50.0, 100, 100);
         assert!((d - Vec3::NEG_Z).length() < 1e-6);
         let top = cam.direction(50.0, 0.0, 100, 100);
-        assert!((top.y.atan2(-top.z) - 0.5).abs() < 1e-5, "top edge is yfov/2 above the axis");
+        assert!(
+            (top.y.atan2(-top.z) - 0.5).abs() < 1e-5,
+            "top edge is yfov/2 above the axis"
+        );
         let right = cam.direction(200.0, 50.0, 200, 100);
         assert!((right.x / -right.z - 2.0 * 0.5f32.tan()).abs() < 1e-5);
     }

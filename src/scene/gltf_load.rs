@@ -28,7 +28,9 @@ pub enum CameraChoice {
 impl std::str::FromStr for CameraChoice {
     type Err = std::convert::Infallible;
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        Ok(s.parse().map(CameraChoice::Index).unwrap_or_else(|_| CameraChoice::Name(s.into())))
+        Ok(s.parse()
+            .map(CameraChoice::Index)
+            .unwrap_or_else(|_| CameraChoice::Name(s.into())))
     }
 }
 
@@ -36,11 +38,18 @@ impl std::str::FromStr for CameraChoice {
 #[derive(Debug, thiserror::Error)]
 pub enum LoadError {
     #[error("cannot read {}: {source}", path.display())]
-    Io { path: PathBuf, source: std::io::Error },
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
     #[error("{}: not a valid glTF 2.0 file: {message}", path.display())]
     Format { path: PathBuf, message: String },
     #[error("{}: {element}: {message}", path.display())]
-    Invalid { path: PathBuf, element: String, message: String },
+    Invalid {
+        path: PathBuf,
+        element: String,
+        message: String,
+    },
 }
 
 /// Node hierarchies deeper than this are refused (a cycle, or a hostile file).
@@ -48,9 +57,14 @@ const MAX_NODE_DEPTH: usize = 256;
 
 /// Loads the default scene of a glTF or GLB file.
 pub fn load_gltf(path: &Path, camera: &CameraChoice) -> Result<Scene, LoadError> {
-    let bytes = std::fs::read(path).map_err(|source| LoadError::Io { path: path.into(), source })?;
-    let gltf = gltf::Gltf::from_slice(&bytes)
-        .map_err(|e| LoadError::Format { path: path.into(), message: e.to_string() })?;
+    let bytes = std::fs::read(path).map_err(|source| LoadError::Io {
+        path: path.into(),
+        source,
+    })?;
+    let gltf = gltf::Gltf::from_slice(&bytes).map_err(|e| LoadError::Format {
+        path: path.into(),
+        message: e.to_string(),
+    })?;
     let invalid = |element: String, message: String| LoadError::Invalid {
         path: path.into(),
         element,
@@ -60,7 +74,11 @@ pub fn load_gltf(path: &Path, camera: &CameraChoice) -> Result<Scene, LoadError>
     let gltf::Gltf { document, blob } = gltf;
     let buffers = load_buffers(&document, blob, base_dir).map_err(|(e, m)| invalid(e, m))?;
 
-    let mut loader = Loader { buffers: &buffers, materials: Vec::new(), material_map: Vec::new() };
+    let mut loader = Loader {
+        buffers: &buffers,
+        materials: Vec::new(),
+        material_map: Vec::new(),
+    };
     loader.material_map = vec![None; document.materials().len() + 1];
     let scene = document
         .default_scene()
@@ -76,7 +94,10 @@ pub fn load_gltf(path: &Path, camera: &CameraChoice) -> Result<Scene, LoadError>
     while let Some((node, parent, depth)) = stack.pop() {
         let element = format!("node {}{}", node.index(), quoted(node.name()));
         if depth > MAX_NODE_DEPTH {
-            return Err(invalid(element, format!("hierarchy deeper than {MAX_NODE_DEPTH} nodes")));
+            return Err(invalid(
+                element,
+                format!("hierarchy deeper than {MAX_NODE_DEPTH} nodes"),
+            ));
         }
         let local = Mat4::from_cols_array_2d(&node.transform().matrix());
         let world = parent * local;
@@ -135,14 +156,23 @@ fn load_buffers(
         let element = format!("buffer {}", buffer.index());
         let data = match buffer.source() {
             gltf::buffer::Source::Bin => blob.take().ok_or_else(|| {
-                (element.clone(), "refers to the GLB binary chunk, which is missing".into())
+                (
+                    element.clone(),
+                    "refers to the GLB binary chunk, which is missing".into(),
+                )
             })?,
-            gltf::buffer::Source::Uri(uri) => read_uri(uri, base_dir).map_err(|m| (element.clone(), m))?,
+            gltf::buffer::Source::Uri(uri) => {
+                read_uri(uri, base_dir).map_err(|m| (element.clone(), m))?
+            }
         };
         if data.len() < buffer.length() {
             return Err((
                 element,
-                format!("declares {} bytes but only {} are present", buffer.length(), data.len()),
+                format!(
+                    "declares {} bytes but only {} are present",
+                    buffer.length(),
+                    data.len()
+                ),
             ));
         }
         buffers.push(data);
@@ -303,7 +333,7 @@ impl Loader<'_> {
             }
             None => (0..positions.len() as u32).collect(),
         };
-        if indices.len() % 3 != 0 {
+        if !indices.len().is_multiple_of(3) {
             return Err(format!(
                 "{} indices is not a multiple of 3 for TRIANGLES mode",
                 indices.len()
@@ -316,7 +346,11 @@ impl Loader<'_> {
         let to_world = |p: Vec3| world.transform_point3(p);
         for tri in indices.chunks_exact(3) {
             // A mirroring transform flips the winding; swap two vertices to keep the front face.
-            let ids = if mirrored { [tri[0], tri[2], tri[1]] } else { [tri[0], tri[1], tri[2]] };
+            let ids = if mirrored {
+                [tri[0], tri[2], tri[1]]
+            } else {
+                [tri[0], tri[1], tri[2]]
+            };
             let p = ids.map(|i| to_world(positions[i as usize]));
             let ng = geometric_normal(&p);
             if ng == Vec3::ZERO || !super::triangle_area(&p).is_normal() {
@@ -331,7 +365,12 @@ impl Loader<'_> {
                     .unwrap_or(ng)
             });
             let uv = ids.map(|i| uvs.as_ref().map_or(Vec2::ZERO, |u| u[i as usize]));
-            out.push(Triangle { positions: p, normals: n, uvs: uv, material });
+            out.push(Triangle {
+                positions: p,
+                normals: n,
+                uvs: uv,
+                material,
+            });
         }
         Ok(())
     }
@@ -365,7 +404,10 @@ fn check_accessor(
         return Err(format!("{what} (accessor {}) is empty", acc.index()));
     }
     if acc.view().is_none() && acc.sparse().is_none() {
-        return Err(format!("{what} (accessor {}) has no buffer view", acc.index()));
+        return Err(format!(
+            "{what} (accessor {}) has no buffer view",
+            acc.index()
+        ));
     }
     Ok(())
 }
@@ -399,9 +441,12 @@ fn choose_camera(cameras: &[CameraNode], choice: &CameraChoice) -> Result<Option
     };
     let chosen = match choice {
         CameraChoice::First => return Ok(cameras.iter().find_map(perspective)),
-        CameraChoice::Index(i) => cameras
-            .get(*i)
-            .ok_or_else(|| format!("--camera {i}: the scene has {} camera node(s)", cameras.len()))?,
+        CameraChoice::Index(i) => cameras.get(*i).ok_or_else(|| {
+            format!(
+                "--camera {i}: the scene has {} camera node(s)",
+                cameras.len()
+            )
+        })?,
         CameraChoice::Name(name) => cameras
             .iter()
             .find(|(n, c, _)| n.name() == Some(name) || c.name() == Some(name))

@@ -89,7 +89,12 @@ impl Triangle {
     /// A flat triangle: shading normals equal to the geometric normal, zero uvs.
     pub fn flat(positions: [Vec3; 3], material: u32) -> Self {
         let n = geometric_normal(&positions);
-        Triangle { positions, normals: [n; 3], uvs: [Vec2::ZERO; 3], material }
+        Triangle {
+            positions,
+            normals: [n; 3],
+            uvs: [Vec2::ZERO; 3],
+            material,
+        }
     }
 
     pub fn geometric_normal(&self) -> Vec3 {
@@ -169,7 +174,12 @@ impl Scene {
         if kept.is_empty() {
             return Err("the scene has no triangles of positive area".into());
         }
-        Ok(Scene { triangles: kept, materials, camera, stats })
+        Ok(Scene {
+            triangles: kept,
+            materials,
+            camera,
+            stats,
+        })
     }
 
     pub fn material_of(&self, triangle: usize) -> &Material {

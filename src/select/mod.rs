@@ -28,7 +28,9 @@ impl LightSelector {
         if lights.is_empty() {
             return None;
         }
-        let uniform = LightSelector::Uniform { count: lights.len() };
+        let uniform = LightSelector::Uniform {
+            count: lights.len(),
+        };
         Some(match kind {
             SelectorKind::Uniform => uniform,
             SelectorKind::Power => AliasTable::new(&lights.powers())
