@@ -5,6 +5,9 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+mod common;
+use common::{write_gltf, U32};
+
 const EXIT_FAILURE: i32 = 1;
 const EXIT_BAD_INPUT: i32 = 3;
 
@@ -42,43 +45,6 @@ fn render_into(dir: &Path, scene: &str, extra: &[&str]) -> (i32, String, PathBuf
         String::from_utf8_lossy(&o.stderr).into_owned(),
         out,
     )
-}
-
-/// Writes `name`.gltf with one triangle-list mesh whose buffer is `name`.bin (positions as f32
-/// VEC3 then u32 indices). `write_bin` false leaves the buffer file missing.
-fn write_gltf(
-    dir: &Path,
-    name: &str,
-    positions: &[f32],
-    indices: &[u32],
-    write_bin: bool,
-) -> String {
-    let mut bin: Vec<u8> = positions.iter().flat_map(|f| f.to_le_bytes()).collect();
-    let pos_len = bin.len();
-    bin.extend(indices.iter().flat_map(|i| i.to_le_bytes()));
-    let json = serde_json::json!({
-        "asset": {"version": "2.0"},
-        "scene": 0,
-        "scenes": [{"nodes": [0]}],
-        "nodes": [{"mesh": 0}],
-        "meshes": [{"name": "plate", "primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}],
-        "buffers": [{"uri": format!("{name}.bin"), "byteLength": bin.len()}],
-        "bufferViews": [
-            {"buffer": 0, "byteOffset": 0, "byteLength": pos_len},
-            {"buffer": 0, "byteOffset": pos_len, "byteLength": bin.len() - pos_len}
-        ],
-        "accessors": [
-            {"bufferView": 0, "componentType": 5126, "count": positions.len() / 3, "type": "VEC3",
-             "min": [0, 0, 0], "max": [1, 1, 0]},
-            {"bufferView": 1, "componentType": 5125, "count": indices.len(), "type": "SCALAR"}
-        ]
-    });
-    if write_bin {
-        std::fs::write(dir.join(format!("{name}.bin")), &bin).unwrap();
-    }
-    let path = dir.join(format!("{name}.gltf"));
-    std::fs::write(&path, serde_json::to_vec_pretty(&json).unwrap()).unwrap();
-    path.to_string_lossy().into_owned()
 }
 
 const TRIANGLE: [f32; 9] = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0];
@@ -130,7 +96,7 @@ fn file_that_is_not_gltf() {
 #[test]
 fn missing_buffer_file() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = write_gltf(dir.path(), "lost", &TRIANGLE, &[0, 1, 2], false);
+    let scene = write_gltf(dir.path(), "lost", &TRIANGLE, Some((&[0, 1, 2], U32)), false);
     let (code, err, out) = render_into(dir.path(), &scene, &[]);
     assert_refused(
         code,
@@ -146,7 +112,7 @@ fn nan_positions() {
     let dir = tempfile::tempdir().unwrap();
     let mut positions = TRIANGLE;
     positions[4] = f32::NAN;
-    let scene = write_gltf(dir.path(), "nan", &positions, &[0, 1, 2], true);
+    let scene = write_gltf(dir.path(), "nan", &positions, Some((&[0, 1, 2], U32)), true);
     let (code, err, out) = render_into(dir.path(), &scene, &[]);
     assert_refused(
         code,
@@ -164,7 +130,7 @@ fn nan_positions() {
 #[test]
 fn indices_past_the_vertex_count() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = write_gltf(dir.path(), "idx", &TRIANGLE, &[0, 1, 7], true);
+    let scene = write_gltf(dir.path(), "idx", &TRIANGLE, Some((&[0, 1, 7], U32)), true);
     let (code, err, out) = render_into(dir.path(), &scene, &[]);
     assert_refused(
         code,

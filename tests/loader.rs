@@ -1,0 +1,173 @@
+//! The glTF loader against files whose content the test knows: our writer's output and
+//! hand-written buffers. Transforms (TRS, matrix, hierarchy, mirroring), index widths,
+//! .gltf versus .glb, degenerate triangles, materials and camera choice.
+
+use std::path::Path;
+
+use glam::Vec3;
+use manylights::lights::Lights;
+use manylights::scene::generate;
+use manylights::scene::gltf_write::{GltfBuilder, Material, NodeTransform};
+use manylights::scene::{load_gltf, CameraChoice, LoadError};
+
+mod common;
+use common::{write_gltf, U16, U32, U8};
+
+fn close(a: Vec3, b: Vec3) -> bool {
+    (a - b).length() < 1e-5
+}
+
+#[test]
+fn cornell_loads_with_its_transforms_applied() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("cornell.glb");
+    generate::cornell().write(&path).unwrap();
+    let scene = load_gltf(&path, &CameraChoice::First).unwrap();
+    assert_eq!(scene.triangles.len(), 36);
+    let lights = Lights::from_scene(&scene);
+    assert_eq!(lights.len(), 2);
+    for l in &lights.lights {
+        // The light quad is placed by a matrix node just below the ceiling, facing down.
+        assert!(close(l.normal, -Vec3::Y), "light normal {}", l.normal);
+        assert!((l.p0.y - 1.999).abs() < 1e-5, "light at y = {}", l.p0.y);
+        assert!(!l.two_sided);
+    }
+    let (lo, hi) = scene.bounds();
+    assert!(close(lo, Vec3::new(-1.0, 0.0, -1.0)) && close(hi, Vec3::new(1.0, 2.0, 1.0)));
+    let camera = scene.camera.unwrap();
+    assert!(close(camera.position, Vec3::new(0.0, 1.0, 3.4)));
+    assert!(close(camera.forward, -Vec3::Z));
+    assert!((camera.yfov - 40f32.to_radians()).abs() < 1e-5);
+}
+
+#[test]
+fn gltf_and_glb_load_the_same_scene() {
+    let dir = tempfile::tempdir().unwrap();
+    let builder = generate::many_lights(3, 500);
+    let (glb, gltf) = (dir.path().join("t.glb"), dir.path().join("t.gltf"));
+    builder.write(&glb).unwrap();
+    builder.write(&gltf).unwrap();
+    let a = load_gltf(&glb, &CameraChoice::First).unwrap();
+    let b = load_gltf(&gltf, &CameraChoice::First).unwrap();
+    assert_eq!(a.triangles, b.triangles);
+    assert_eq!(a.materials, b.materials);
+    assert_eq!(Lights::from_scene(&a).len(), 500);
+}
+
+/// One triangle facing +Z in its local frame, under `transform`.
+fn single_triangle_scene(path: &Path, transform: NodeTransform, parent: Option<NodeTransform>) {
+    let mut b = GltfBuilder::new();
+    let m = b.add_material(Material {
+        name: "glow".into(),
+        emissive: [1.0, 0.5, 0.25],
+        emissive_strength: 4.0,
+        double_sided: true,
+        ..Material::default()
+    });
+    let mesh = b.add_mesh("tri", &[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], None, None, m);
+    let node = b.add_node("tri", Some(mesh), None, transform);
+    if let Some(p) = parent {
+        let parent = b.add_node("parent", None, None, p);
+        b.add_child(parent, node);
+    }
+    b.write(path).unwrap();
+}
+
+#[test]
+fn trs_matrix_and_hierarchy_compose_parent_times_child() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("h.glb");
+    // Child: scale 2 then translate (1, 0, 0); parent: a matrix translating by (0, 0, 5).
+    let child = NodeTransform::Trs {
+        translation: [1.0, 0.0, 0.0],
+        rotation: [0.0, 0.0, 0.0, 1.0],
+        scale: [2.0, 2.0, 2.0],
+    };
+    let mut m = [0.0f32; 16];
+    (m[0], m[5], m[10], m[15]) = (1.0, 1.0, 1.0, 1.0);
+    m[14] = 5.0; // column-major: translation in the last column
+    single_triangle_scene(&path, child, Some(NodeTransform::Matrix(m)));
+    let scene = load_gltf(&path, &CameraChoice::First).unwrap();
+    let t = &scene.triangles[0];
+    assert!(close(t.positions[0], Vec3::new(1.0, 0.0, 5.0)));
+    assert!(close(t.positions[1], Vec3::new(3.0, 0.0, 5.0)));
+    assert!(close(t.positions[2], Vec3::new(1.0, 2.0, 5.0)));
+    assert!((t.area() - 2.0).abs() < 1e-6);
+    // Emission = factor × KHR_materials_emissive_strength, two-sided.
+    let m = scene.material_of(0);
+    assert_eq!(m.emission, Vec3::new(4.0, 2.0, 1.0));
+    assert!(m.double_sided);
+    let lights = Lights::from_scene(&scene);
+    let expected = std::f64::consts::PI * 2.0 * manylights::lights::luminance(m.emission) as f64 * 2.0;
+    assert!((lights.total_power() - expected).abs() < 1e-9 * expected);
+}
+
+#[test]
+fn a_mirroring_transform_keeps_the_front_face() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("m.glb");
+    let mirror = NodeTransform::Trs {
+        translation: [0.0, 0.0, 0.0],
+        rotation: [0.0, 0.0, 0.0, 1.0],
+        scale: [-1.0, 1.0, 1.0],
+    };
+    single_triangle_scene(&path, mirror, None);
+    let scene = load_gltf(&path, &CameraChoice::First).unwrap();
+    // Mirroring x reverses the winding; glTF says the front face stays the one facing +Z.
+    assert!(close(scene.triangles[0].geometric_normal(), Vec3::Z));
+}
+
+#[test]
+fn every_index_width_and_no_indices_give_the_same_triangles() {
+    let dir = tempfile::tempdir().unwrap();
+    // A quad (two triangles) plus a degenerate third triangle (repeated vertex).
+    let positions = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 1.0, 0.0];
+    let indices = [0, 1, 2, 0, 2, 3, 1, 1, 3];
+    let mut loaded = Vec::new();
+    for (name, component) in [("u8", U8), ("u16", U16), ("u32", U32)] {
+        let path = write_gltf(dir.path(), name, &positions, Some((&indices, component)), true);
+        let scene = load_gltf(Path::new(&path), &CameraChoice::First).unwrap();
+        assert_eq!(scene.stats.degenerate_triangles, 1, "{name}");
+        loaded.push(scene.triangles);
+    }
+    assert_eq!(loaded[0], loaded[1]);
+    assert_eq!(loaded[0], loaded[2]);
+    assert_eq!(loaded[0].len(), 2);
+    // Without indices, consecutive vertex triples are the triangles.
+    let flat: Vec<f32> = indices[..6]
+        .iter()
+        .flat_map(|&i| positions[3 * i as usize..3 * i as usize + 3].to_vec())
+        .collect();
+    let path = write_gltf(dir.path(), "none", &flat, None, true);
+    let scene = load_gltf(Path::new(&path), &CameraChoice::First).unwrap();
+    assert_eq!(scene.triangles, loaded[0]);
+    // glTF's default material (no material given): white, metallic 1, roughness 1, no emission.
+    assert_eq!(scene.materials, vec![manylights::scene::Material::default()]);
+}
+
+#[test]
+fn cameras_are_chosen_by_index_or_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("cams.glb");
+    let mut b = GltfBuilder::new();
+    let m = b.add_material(Material::default());
+    let mesh = b.add_mesh("tri", &[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], None, None, m);
+    b.add_node("tri", Some(mesh), None, NodeTransform::Identity);
+    for (name, z) in [("near", 2.0), ("far", 9.0)] {
+        let cam = b.add_perspective_camera(name, 0.7, Some(2.0), 0.01);
+        let t = NodeTransform::Trs { translation: [0.0, 0.0, z], rotation: [0.0, 0.0, 0.0, 1.0], scale: [1.0; 3] };
+        b.add_node(name, None, Some(cam), t);
+    }
+    b.write(&path).unwrap();
+    let z_of = |choice: CameraChoice| load_gltf(&path, &choice).map(|s| s.camera.unwrap().position.z);
+    assert_eq!(z_of(CameraChoice::First).unwrap(), 2.0);
+    assert_eq!(z_of(CameraChoice::Index(1)).unwrap(), 9.0);
+    assert_eq!(z_of(CameraChoice::Name("far".into())).unwrap(), 9.0);
+    let err = z_of(CameraChoice::Name("side".into())).unwrap_err();
+    assert!(matches!(err, LoadError::Invalid { .. }) && err.to_string().contains("'side'"), "{err}");
+    let err = z_of(CameraChoice::Index(2)).unwrap_err();
+    assert!(err.to_string().contains("2 camera node(s)"), "{err}");
+    // Resolution follows the camera's aspect ratio (2.0) unless --height is given.
+    let scene = load_gltf(&path, &CameraChoice::First).unwrap();
+    assert_eq!(scene.camera.unwrap().resolution(300, None), (300, 150));
+}
