@@ -96,7 +96,13 @@ fn file_that_is_not_gltf() {
 #[test]
 fn missing_buffer_file() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = write_gltf(dir.path(), "lost", &TRIANGLE, Some((&[0, 1, 2], U32)), false);
+    let scene = write_gltf(
+        dir.path(),
+        "lost",
+        &TRIANGLE,
+        Some((&[0, 1, 2], U32)),
+        false,
+    );
     let (code, err, out) = render_into(dir.path(), &scene, &[]);
     assert_refused(
         code,

@@ -64,7 +64,13 @@ fn single_triangle_scene(path: &Path, transform: NodeTransform, parent: Option<N
         double_sided: true,
         ..Material::default()
     });
-    let mesh = b.add_mesh("tri", &[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], None, None, m);
+    let mesh = b.add_mesh(
+        "tri",
+        &[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+        None,
+        None,
+        m,
+    );
     let node = b.add_node("tri", Some(mesh), None, transform);
     if let Some(p) = parent {
         let parent = b.add_node("parent", None, None, p);
@@ -98,7 +104,8 @@ fn trs_matrix_and_hierarchy_compose_parent_times_child() {
     assert_eq!(m.emission, Vec3::new(4.0, 2.0, 1.0));
     assert!(m.double_sided);
     let lights = Lights::from_scene(&scene);
-    let expected = std::f64::consts::PI * 2.0 * manylights::lights::luminance(m.emission) as f64 * 2.0;
+    let expected =
+        std::f64::consts::PI * 2.0 * manylights::lights::luminance(m.emission) as f64 * 2.0;
     assert!((lights.total_power() - expected).abs() < 1e-9 * expected);
 }
 
@@ -125,7 +132,13 @@ fn every_index_width_and_no_indices_give_the_same_triangles() {
     let indices = [0, 1, 2, 0, 2, 3, 1, 1, 3];
     let mut loaded = Vec::new();
     for (name, component) in [("u8", U8), ("u16", U16), ("u32", U32)] {
-        let path = write_gltf(dir.path(), name, &positions, Some((&indices, component)), true);
+        let path = write_gltf(
+            dir.path(),
+            name,
+            &positions,
+            Some((&indices, component)),
+            true,
+        );
         let scene = load_gltf(Path::new(&path), &CameraChoice::First).unwrap();
         assert_eq!(scene.stats.degenerate_triangles, 1, "{name}");
         loaded.push(scene.triangles);
@@ -142,7 +155,10 @@ fn every_index_width_and_no_indices_give_the_same_triangles() {
     let scene = load_gltf(Path::new(&path), &CameraChoice::First).unwrap();
     assert_eq!(scene.triangles, loaded[0]);
     // glTF's default material (no material given): white, metallic 1, roughness 1, no emission.
-    assert_eq!(scene.materials, vec![manylights::scene::Material::default()]);
+    assert_eq!(
+        scene.materials,
+        vec![manylights::scene::Material::default()]
+    );
 }
 
 #[test]
@@ -151,20 +167,34 @@ fn cameras_are_chosen_by_index_or_name() {
     let path = dir.path().join("cams.glb");
     let mut b = GltfBuilder::new();
     let m = b.add_material(Material::default());
-    let mesh = b.add_mesh("tri", &[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], None, None, m);
+    let mesh = b.add_mesh(
+        "tri",
+        &[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+        None,
+        None,
+        m,
+    );
     b.add_node("tri", Some(mesh), None, NodeTransform::Identity);
     for (name, z) in [("near", 2.0), ("far", 9.0)] {
         let cam = b.add_perspective_camera(name, 0.7, Some(2.0), 0.01);
-        let t = NodeTransform::Trs { translation: [0.0, 0.0, z], rotation: [0.0, 0.0, 0.0, 1.0], scale: [1.0; 3] };
+        let t = NodeTransform::Trs {
+            translation: [0.0, 0.0, z],
+            rotation: [0.0, 0.0, 0.0, 1.0],
+            scale: [1.0; 3],
+        };
         b.add_node(name, None, Some(cam), t);
     }
     b.write(&path).unwrap();
-    let z_of = |choice: CameraChoice| load_gltf(&path, &choice).map(|s| s.camera.unwrap().position.z);
+    let z_of =
+        |choice: CameraChoice| load_gltf(&path, &choice).map(|s| s.camera.unwrap().position.z);
     assert_eq!(z_of(CameraChoice::First).unwrap(), 2.0);
     assert_eq!(z_of(CameraChoice::Index(1)).unwrap(), 9.0);
     assert_eq!(z_of(CameraChoice::Name("far".into())).unwrap(), 9.0);
     let err = z_of(CameraChoice::Name("side".into())).unwrap_err();
-    assert!(matches!(err, LoadError::Invalid { .. }) && err.to_string().contains("'side'"), "{err}");
+    assert!(
+        matches!(err, LoadError::Invalid { .. }) && err.to_string().contains("'side'"),
+        "{err}"
+    );
     let err = z_of(CameraChoice::Index(2)).unwrap_err();
     assert!(err.to_string().contains("2 camera node(s)"), "{err}");
     // Resolution follows the camera's aspect ratio (2.0) unless --height is given.
