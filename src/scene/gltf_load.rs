@@ -259,52 +259,33 @@ impl Loader<'_> {
                 positions[v]
             ));
         }
-        let normals = match prim.get(&gltf::Semantic::Normals) {
-            Some(acc) => {
+        let vertices = positions.len();
+        let normals = prim
+            .get(&gltf::Semantic::Normals)
+            .map(|acc| {
                 check_accessor(&acc, "NORMAL", &[Dimensions::Vec3], &[DataType::F32])?;
-                let n: Vec<Vec3> = reader
+                let n = reader
                     .read_normals()
-                    .ok_or_else(|| out_of_range("NORMAL", &acc))?
-                    .map(Vec3::from)
-                    .collect();
-                if n.len() != positions.len() {
-                    return Err(format!(
-                        "NORMAL (accessor {}) has {} entries but POSITION has {}",
-                        acc.index(),
-                        n.len(),
-                        positions.len()
-                    ));
-                }
-                Some(n)
-            }
-            None => None,
-        };
-        let uvs = match prim.get(&gltf::Semantic::TexCoords(0)) {
-            Some(acc) => {
-                check_accessor(
-                    &acc,
-                    "TEXCOORD_0",
-                    &[Dimensions::Vec2],
-                    &[DataType::F32, DataType::U8, DataType::U16],
-                )?;
-                let uv: Vec<Vec2> = reader
+                    .ok_or_else(|| out_of_range("NORMAL", &acc))?;
+                per_vertex("NORMAL", &acc, n.map(Vec3::from).collect(), vertices)
+            })
+            .transpose()?;
+        let uvs = prim
+            .get(&gltf::Semantic::TexCoords(0))
+            .map(|acc| {
+                let types = [DataType::F32, DataType::U8, DataType::U16];
+                check_accessor(&acc, "TEXCOORD_0", &[Dimensions::Vec2], &types)?;
+                let uv = reader
                     .read_tex_coords(0)
-                    .ok_or_else(|| out_of_range("TEXCOORD_0", &acc))?
-                    .into_f32()
-                    .map(Vec2::from)
-                    .collect();
-                if uv.len() != positions.len() {
-                    return Err(format!(
-                        "TEXCOORD_0 (accessor {}) has {} entries but POSITION has {}",
-                        acc.index(),
-                        uv.len(),
-                        positions.len()
-                    ));
-                }
-                Some(uv)
-            }
-            None => None,
-        };
+                    .ok_or_else(|| out_of_range("TEXCOORD_0", &acc))?;
+                per_vertex(
+                    "TEXCOORD_0",
+                    &acc,
+                    uv.into_f32().map(Vec2::from).collect(),
+                    vertices,
+                )
+            })
+            .transpose()?;
         let indices: Vec<u32> = match prim.indices() {
             Some(acc) => {
                 check_accessor(
@@ -382,6 +363,23 @@ fn out_of_range(what: &str, acc: &gltf::Accessor) -> String {
         acc.index(),
         acc.count()
     )
+}
+
+/// A per-vertex attribute must have one entry per POSITION.
+fn per_vertex<T>(
+    what: &str,
+    acc: &gltf::Accessor,
+    values: Vec<T>,
+    vertices: usize,
+) -> Result<Vec<T>, String> {
+    if values.len() != vertices {
+        return Err(format!(
+            "{what} (accessor {}) has {} entries but POSITION has {vertices}",
+            acc.index(),
+            values.len()
+        ));
+    }
+    Ok(values)
 }
 
 fn check_accessor(
