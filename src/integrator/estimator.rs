@@ -164,15 +164,14 @@ impl Estimator<'_> {
         let samples = self.k * self.n;
         let mut sum = Vec3::ZERO;
         for _ in 0..samples {
-            let (local, pdf) = match self.strategy {
-                Strategy::HemisphereUniform => (
+            let (local, pdf) = if self.strategy == Strategy::HemisphereUniform {
+                (
                     warp::uniform_hemisphere(rng.next_2d()),
                     warp::UNIFORM_HEMISPHERE_PDF,
-                ),
-                _ => {
-                    let w = warp::cosine_hemisphere(rng.next_2d());
-                    (w, warp::cosine_hemisphere_pdf(w.z))
-                }
+                )
+            } else {
+                let w = warp::cosine_hemisphere(rng.next_2d());
+                (w, warp::cosine_hemisphere_pdf(w.z))
             };
             let wi = frame.to_world(local);
             if x.ng.dot(wi) <= 0.0 || pdf <= 0.0 {

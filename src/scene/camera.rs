@@ -63,14 +63,15 @@ impl Camera {
     }
 
     /// Image size from the requested width and optional height: H = round(W / aspect) where the
-    /// file gives an aspect ratio, else square.
+    /// file gives an aspect ratio (clamped to 1..=16384), else square.
     pub fn resolution(&self, width: u32, height: Option<u32>) -> (u32, u32) {
+        const MAX_HEIGHT: f32 = 16384.0;
         let h = height.unwrap_or_else(|| {
             let aspect = self
                 .aspect_ratio
                 .filter(|a| a.is_finite() && *a > 0.0)
                 .unwrap_or(1.0);
-            ((width as f32 / aspect).round() as u32).max(1)
+            (width as f32 / aspect).round().clamp(1.0, MAX_HEIGHT) as u32
         });
         (width, h)
     }
@@ -109,5 +110,10 @@ mod tests {
         let cam = Camera::from_world_matrix("c".into(), &Mat4::IDENTITY, 1.0, Some(1.5)).unwrap();
         assert_eq!(cam.resolution(300, None), (300, 200));
         assert_eq!(cam.resolution(300, Some(10)), (300, 10));
+        let thin = Camera {
+            aspect_ratio: Some(1e-9),
+            ..cam
+        };
+        assert_eq!(thin.resolution(300, None), (300, 16384));
     }
 }
