@@ -1,37 +1,81 @@
-//! Whole-path costs on the shipped many-light scene: BVH build, light build (lights + alias
-//! table), and one frame at 128×128, 1 spp, K = N = 1, power selection.
+//! Whole-path costs on the shipped many-light scene (12,000 emissive triangles): BVH build,
+//! light + selector build per selector, the cost of one light choice per selector at real
+//! shading points, and one frame at 128×128, 1 spp, K = N = 1.
 
+use std::hint::black_box;
 use std::path::Path;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use manylights::accel::Accel;
-use manylights::integrator::{render, Estimator, RenderOptions, Strategy};
+use manylights::integrator::{render, PreparedScene, RenderOptions, Strategy};
 use manylights::lights::Lights;
-use manylights::scene::load_gltf;
-use manylights::select::{LightSelector, SelectorKind};
+use manylights::sampling::rng::PixelRng;
+use manylights::scene::{load_gltf, Scene};
+use manylights::select::{LightSelector, SelectorKind, ShadingContext};
 
-fn town(c: &mut Criterion) {
+const SELECTORS: [SelectorKind; 4] = [
+    SelectorKind::Uniform,
+    SelectorKind::Power,
+    SelectorKind::Bvh,
+    SelectorKind::Oracle,
+];
+
+fn town() -> Scene {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/town.glb");
-    let scene = load_gltf(&path, &Default::default()).expect("scenes/town.glb loads");
+    load_gltf(&path, &Default::default()).expect("scenes/town.glb loads")
+}
+
+/// Shading points where camera rays through a 32×32 grid hit the scene.
+fn shading_points(scene: &Scene, accel: &Accel) -> Vec<ShadingContext> {
+    let camera = scene.camera.as_ref().expect("town has a camera");
+    let mut points = Vec::new();
+    for j in 0..32 {
+        for i in 0..32 {
+            let dir = camera.direction(i as f32 + 0.5, j as f32 + 0.5, 32, 32);
+            if let Some(hit) = accel.closest_hit(camera.position, dir, f32::INFINITY) {
+                let n = scene.triangles[hit.triangle as usize].geometric_normal();
+                let n = if n.dot(dir) > 0.0 { -n } else { n };
+                points.push(ShadingContext {
+                    p: camera.position + dir * hit.t,
+                    n,
+                });
+            }
+        }
+    }
+    points
+}
+
+fn town_benches(c: &mut Criterion) {
+    let scene = town();
     c.bench_function("town/bvh_build", |b| b.iter(|| Accel::build(&scene)));
-    c.bench_function("town/light_build", |b| {
-        b.iter(|| {
-            let lights = Lights::from_scene(&scene);
-            LightSelector::new(SelectorKind::Power, &lights)
-        })
-    });
+    for kind in [SelectorKind::Power, SelectorKind::Bvh] {
+        c.bench_function(&format!("town/light_build/{kind:?}"), |b| {
+            b.iter(|| {
+                let mut lights = Lights::from_scene(&scene);
+                LightSelector::build(kind, &mut lights)
+            })
+        });
+    }
     let accel = Accel::build(&scene);
-    let lights = Lights::from_scene(&scene);
-    let selector = LightSelector::new(SelectorKind::Power, &lights);
-    let estimator = Estimator {
-        scene: &scene,
-        accel: &accel,
-        lights: &lights,
-        selector: selector.as_ref(),
-        strategy: Strategy::LightArea,
-        k: 1,
-        n: 1,
-    };
+    let points = shading_points(&scene, &accel);
+    for kind in SELECTORS {
+        let mut lights = Lights::from_scene(&scene);
+        let selector = LightSelector::build(kind, &mut lights).expect("town has lights");
+        let mut rng = PixelRng::new(1, 2);
+        let mut i = 0;
+        c.bench_function(&format!("town/select_sample/{kind:?}"), |b| {
+            b.iter(|| {
+                i = (i + 1) % points.len();
+                black_box(selector.sample(&lights, &points[i], rng.next_f64()))
+            })
+        });
+        c.bench_function(&format!("town/select_pmf/{kind:?}"), |b| {
+            b.iter(|| {
+                i = (i + 1) % points.len();
+                black_box(selector.pmf(&lights, &points[i], i % lights.len()))
+            })
+        });
+    }
     let camera = scene.camera.clone().expect("town has a camera");
     let opts = RenderOptions {
         width: 128,
@@ -39,14 +83,18 @@ fn town(c: &mut Criterion) {
         spp: 1,
         seed: 0,
     };
-    c.bench_function("town/frame_128x128_1spp", |b| {
-        b.iter(|| render(&estimator, &camera, &opts))
-    });
+    for kind in [SelectorKind::Power, SelectorKind::Bvh] {
+        let prepared = PreparedScene::new(scene.clone(), kind);
+        let estimator = prepared.estimator(Strategy::LightArea, 1, 1);
+        c.bench_function(&format!("town/frame_128x128_1spp/{kind:?}"), |b| {
+            b.iter(|| render(&estimator, &camera, &opts))
+        });
+    }
 }
 
 criterion_group! {
     name = benches;
     config = Criterion::default().sample_size(20);
-    targets = town
+    targets = town_benches
 }
 criterion_main!(benches);

@@ -13,6 +13,7 @@ pub mod image;
 pub mod integrator;
 pub mod lights;
 pub mod material;
+pub mod measure;
 pub mod sampling;
 pub mod scene;
 pub mod select;

@@ -26,7 +26,7 @@ fn cornell_loads_with_its_transforms_applied() {
     assert_eq!(scene.triangles.len(), 36);
     let lights = Lights::from_scene(&scene);
     assert_eq!(lights.len(), 2);
-    for l in &lights.lights {
+    for l in lights.triangles() {
         // The light quad is placed by a matrix node just below the ceiling, facing down.
         assert!(close(l.normal, -Vec3::Y), "light normal {}", l.normal);
         assert!((l.p0.y - 1.999).abs() < 1e-5, "light at y = {}", l.p0.y);
@@ -200,4 +200,55 @@ fn cameras_are_chosen_by_index_or_name() {
     // Resolution follows the camera's aspect ratio (2.0) unless --height is given.
     let scene = load_gltf(&path, &CameraChoice::First).unwrap();
     assert_eq!(scene.camera.unwrap().resolution(300, None), (300, 150));
+}
+
+#[test]
+fn punctual_lights_are_placed_by_their_nodes() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write_gltf(
+        dir.path(),
+        "lit",
+        &[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0],
+        None,
+        true,
+    );
+    let mut json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+    json["extensionsUsed"] = serde_json::json!(["KHR_lights_punctual"]);
+    json["extensions"] = serde_json::json!({"KHR_lights_punctual": {"lights": [
+        {"type": "point", "color": [1.0, 0.5, 0.25], "intensity": 8.0},
+        {"type": "spot", "intensity": 3.0, "spot": {"innerConeAngle": 0.2, "outerConeAngle": 0.4}},
+        {"type": "directional", "intensity": 2.0}
+    ]}});
+    // Rotating −Z (a light's direction) by −90° about +X gives −Y: quaternion (−sin 45°, 0, 0, cos 45°).
+    let h = std::f32::consts::FRAC_1_SQRT_2;
+    let nodes = json["nodes"].as_array_mut().unwrap();
+    nodes.push(serde_json::json!({"translation": [1, 2, 3], "extensions": {"KHR_lights_punctual": {"light": 0}}}));
+    nodes.push(serde_json::json!({"translation": [0, 5, 0], "rotation": [-h, 0, 0, h], "extensions": {"KHR_lights_punctual": {"light": 1}}}));
+    nodes.push(serde_json::json!({"rotation": [-h, 0, 0, h], "extensions": {"KHR_lights_punctual": {"light": 2}}}));
+    json["scenes"][0]["nodes"] = serde_json::json!([0, 1, 2, 3]);
+    std::fs::write(&path, serde_json::to_vec(&json).unwrap()).unwrap();
+
+    use manylights::scene::PunctualKind;
+    let scene = load_gltf(Path::new(&path), &CameraChoice::First).unwrap();
+    assert_eq!(scene.punctual.len(), 3);
+    let [point, spot, sun] = [&scene.punctual[0], &scene.punctual[1], &scene.punctual[2]];
+    assert_eq!(point.kind, PunctualKind::Point);
+    assert!(close(point.position, Vec3::new(1.0, 2.0, 3.0)));
+    assert_eq!(point.intensity, Vec3::new(8.0, 4.0, 2.0));
+    match spot.kind {
+        PunctualKind::Spot {
+            cos_inner,
+            cos_outer,
+        } => {
+            assert!(
+                (cos_inner - 0.2f32.cos()).abs() < 1e-6 && (cos_outer - 0.4f32.cos()).abs() < 1e-6
+            )
+        }
+        k => panic!("expected a spot, got {k:?}"),
+    }
+    assert!(close(spot.position, Vec3::new(0.0, 5.0, 0.0)) && close(spot.direction, -Vec3::Y));
+    assert_eq!(sun.kind, PunctualKind::Directional);
+    assert!(close(sun.direction, -Vec3::Y));
+    assert_eq!(Lights::from_scene(&scene).len(), 3);
 }

@@ -3,10 +3,9 @@
 
 use glam::{Mat4, Vec3};
 use manylights::accel::Accel;
-use manylights::integrator::{render, Estimator, RenderOptions, Strategy};
-use manylights::lights::Lights;
+use manylights::integrator::{render, PreparedScene, RenderOptions, Strategy};
 use manylights::scene::{Camera, Material, Scene, Triangle};
-use manylights::select::{LightSelector, SelectorKind};
+use manylights::select::SelectorKind;
 
 /// Two triangles of the quad a, b, c, d (counter-clockwise = front).
 fn quad(a: Vec3, b: Vec3, c: Vec3, d: Vec3, m: u32) -> [Triangle; 2] {
@@ -35,18 +34,8 @@ fn closed_box(lo: Vec3, hi: Vec3, m: u32) -> Vec<Triangle> {
 }
 
 fn render_scene(scene: &Scene, strategy: Strategy, spp: u32) -> manylights::film::Film {
-    let accel = Accel::build(scene);
-    let lights = Lights::from_scene(scene);
-    let selector = LightSelector::new(SelectorKind::Power, &lights).unwrap();
-    let estimator = Estimator {
-        scene,
-        accel: &accel,
-        lights: &lights,
-        selector: Some(&selector),
-        strategy,
-        k: 2,
-        n: 2,
-    };
+    let prepared = PreparedScene::new(scene.clone(), SelectorKind::Power);
+    let estimator = prepared.estimator(strategy, 2, 2);
     let opts = RenderOptions {
         width: 24,
         height: 24,

@@ -19,7 +19,7 @@ pub struct InfoArgs {
 pub fn run(args: &InfoArgs) -> anyhow::Result<()> {
     let scene = load_gltf(&args.scene, &args.camera.clone().unwrap_or_default())?;
     let lights = Lights::from_scene(&scene);
-    let two_sided = lights.lights.iter().filter(|l| l.two_sided).count();
+    let two_sided = lights.triangles().filter(|l| l.two_sided).count();
     let (lo, hi) = scene.bounds();
     println!("scene              {}", args.scene.display());
     println!("triangles          {}", scene.triangles.len());
@@ -54,8 +54,8 @@ pub fn run(args: &InfoArgs) -> anyhow::Result<()> {
     }
     let s = &scene.stats;
     println!(
-        "skipped            {} degenerate triangles, {} non-triangle primitives, {} punctual lights",
-        s.degenerate_triangles, s.skipped_primitives, s.ignored_punctual_lights
+        "skipped            {} degenerate triangles, {} non-triangle primitives",
+        s.degenerate_triangles, s.skipped_primitives
     );
     Ok(())
 }

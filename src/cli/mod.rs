@@ -3,6 +3,7 @@
 //! Exit codes: 0 success; 1 a run-time failure (e.g. an output file cannot be written);
 //! 2 bad command-line usage (from clap); 3 an input scene that cannot be read or is invalid.
 
+pub mod diff;
 pub mod gen;
 pub mod info;
 pub mod render;
@@ -31,6 +32,8 @@ pub enum Command {
     Info(info::InfoArgs),
     /// Write one of the built-in scenes as glTF 2.0 (.glb or .gltf).
     Gen(gen::GenArgs),
+    /// Error of an image against a reference: MSE, relMSE, max abs error, PSNR.
+    Diff(diff::DiffArgs),
 }
 
 /// Runs a parsed command line and returns the process exit code, printing any error.
@@ -39,6 +42,7 @@ pub fn run(cli: Cli) -> i32 {
         Command::Render(args) => render::run(&args),
         Command::Info(args) => info::run(&args),
         Command::Gen(args) => gen::run(&args),
+        Command::Diff(args) => diff::run(&args),
     };
     match result {
         Ok(()) => 0,

@@ -8,12 +8,10 @@ use anyhow::{bail, Context};
 use clap::Args;
 use serde::Serialize;
 
-use crate::accel::Accel;
 use crate::image::{write_atomically, write_exr, write_png_preview, RgbImage};
-use crate::integrator::{render, Estimator, RenderOptions, RenderStats, Strategy};
-use crate::lights::Lights;
+use crate::integrator::{render, PreparedScene, RenderOptions, RenderStats, Strategy};
 use crate::scene::{load_gltf, Camera, CameraChoice};
-use crate::select::{LightSelector, SelectorKind};
+use crate::select::SelectorKind;
 
 #[derive(Args, Debug, Clone)]
 pub struct RenderArgs {
@@ -91,6 +89,8 @@ pub struct RenderSummary {
     pub lights: usize,
     pub degenerate_triangles: usize,
     pub total_power: f64,
+    /// Heap bytes of the light-selection structure.
+    pub selector_bytes: usize,
     pub seconds: Timings,
     pub stats: RenderStats,
     pub rays_total: u64,
@@ -170,30 +170,16 @@ fn render_scene(args: &RenderArgs) -> anyhow::Result<RenderSummary> {
     });
     let (width, height) = camera.resolution(args.width, args.height);
 
-    let t = Instant::now();
-    let accel = Accel::build(&scene);
-    seconds.bvh_build = t.elapsed().as_secs_f64();
-
-    let t = Instant::now();
-    let lights = Lights::from_scene(&scene);
-    let selector = LightSelector::new(args.selector, &lights);
-    seconds.light_build = t.elapsed().as_secs_f64();
-    if lights.is_empty() {
+    let prepared = PreparedScene::new(scene, args.selector);
+    seconds.bvh_build = prepared.bvh_seconds;
+    seconds.light_build = prepared.light_seconds;
+    if prepared.lights.is_empty() {
         eprintln!(
-            "note: {} has no emissive triangles: only black will be rendered",
+            "note: {} has no lights: only black will be rendered",
             args.scene.display()
         );
     }
-
-    let estimator = Estimator {
-        scene: &scene,
-        accel: &accel,
-        lights: &lights,
-        selector: selector.as_ref(),
-        strategy: args.strategy,
-        k: args.k,
-        n: args.n,
-    };
+    let estimator = prepared.estimator(args.strategy, args.k, args.n);
     let opts = RenderOptions {
         width,
         height,
@@ -234,10 +220,11 @@ fn render_scene(args: &RenderArgs) -> anyhow::Result<RenderSummary> {
         strategy: args.strategy,
         seed: args.seed,
         threads: rayon::current_num_threads(),
-        triangles: scene.triangles.len(),
-        lights: lights.len(),
-        degenerate_triangles: scene.stats.degenerate_triangles,
-        total_power: lights.total_power(),
+        triangles: prepared.scene.triangles.len(),
+        lights: prepared.lights.len(),
+        degenerate_triangles: prepared.scene.stats.degenerate_triangles,
+        total_power: prepared.lights.total_power(),
+        selector_bytes: prepared.selector.as_ref().map_or(0, |s| s.bytes()),
         rays_total,
         rays_per_second: rays_total as f64 / seconds.render,
         camera_samples_per_second: stats.camera_samples as f64 / seconds.render,
@@ -268,11 +255,11 @@ fn print_summary(s: &RenderSummary) {
     );
     let r = &s.stats.rays;
     println!(
-        "rays      {:.3} M (camera {:.3} M, shadow {:.3} M, hemisphere {:.3} M), {:.3} M rays/s",
+        "rays      {:.3} M (camera {:.3} M, shadow {:.3} M, bounce {:.3} M), {:.3} M rays/s",
         mega(s.rays_total as f64),
         mega(r.camera_rays as f64),
         mega(r.shadow_rays as f64),
-        mega(r.hemisphere_rays as f64),
+        mega(r.bounce_rays as f64),
         mega(s.rays_per_second)
     );
     println!(
@@ -281,6 +268,19 @@ fn print_summary(s: &RenderSummary) {
         mega(s.camera_samples_per_second),
         s.image_mean
     );
+    if r.spherical_samples + r.area_samples > 0 {
+        println!(
+            "triangle  {} solid-angle samples, {} area samples",
+            r.spherical_samples, r.area_samples
+        );
+    }
+    if s.selector_bytes > 0 {
+        println!(
+            "selection {} bytes ({:.1} B per light)",
+            s.selector_bytes,
+            s.selector_bytes as f64 / s.lights.max(1) as f64
+        );
+    }
     println!(
         "nan/inf   {} NaN, {} Inf samples (left out of the image)",
         s.stats.nan_samples, s.stats.inf_samples

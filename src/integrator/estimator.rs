@@ -1,37 +1,53 @@
 //! One camera sample's estimate of L(x, ωo) = Le(x, ωo) + ∫ f · Le · V · G dA'.
 //!
-//! `light-area`: K lights l_k ~ p_l, N points x' ~ 1/A on each, and
-//!     L_r ≈ Σ_k Σ_n f · Le · V · G / (K · N · p_l · p(x')),   G = cosθ · cosθ' / |x − x'|².
-//! `hemisphere-*`: K·N directions ω ~ p(ω), L_r ≈ Σ f · Le(hit) · cosθ / (K · N · p(ω)).
+//! Light sampling (`light-area`, `light-solid-angle`): K lights l_k ~ p_l(·|x), N points x' on
+//! each, and
+//!     L_r ≈ Σ_k Σ_n f · Le · V · G / (K · N · p_l · p(x')),
+//! with G = cosθ·cosθ'/r² and p(x') = 1/A in area measure, or G = cosθ and p = 1/Ω in solid-angle
+//! measure. A delta light (point, spot, directional) is sampled exactly once (N = 1 for it).
+//! `bsdf`: K·N directions from the BRDF, adding the emission they hit: Σ f·Le·cosθ / (K·N·p(ω)).
+//! `mis`: each of the K·N light samples and a matching BSDF sample, weighted by the power
+//! heuristic w_a = p_a² / (p_light² + p_bsdf²) in solid angle, with p_light = p_l · p(ω | l) and,
+//! for a BSDF ray that hits light l, p_l from the selector's pmf (Veach & Guibas 1995).
+//! `hemisphere-*`: K·N directions uniform or cosine-distributed: Σ f·Le·cosθ / (K·N·p(ω)).
+//!
+//! Rays per K×N slot: light-area, light-solid-angle: one shadow ray per light sample (none when
+//! the light faces away or f = 0); bsdf and hemisphere-*: one ray; mis: one shadow + one BSDF ray.
 
 use glam::Vec3;
 
 use super::Strategy;
 use crate::accel::{offset_ray_origin, Accel, Hit};
-use crate::lights::{emits_toward, Lights};
+use crate::lights::{emits_toward, Light, Lights, Technique, TriangleLight};
 use crate::material::Brdf;
 use crate::sampling::rng::PixelRng;
 use crate::sampling::warp::{self, Frame};
 use crate::scene::Scene;
-use crate::select::LightSelector;
+use crate::select::{LightSelector, ShadingContext};
 
-/// Rays traced by one or more camera samples, by kind.
+/// Rays traced and sampling decisions, by kind.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub struct SampleCounts {
     pub camera_rays: u64,
     pub shadow_rays: u64,
-    pub hemisphere_rays: u64,
+    /// Rays traced toward BSDF-sampled or hemisphere directions.
+    pub bounce_rays: u64,
+    /// Triangle-light samples drawn in solid angle (Arvo) and by area (including the fallback).
+    pub spherical_samples: u64,
+    pub area_samples: u64,
 }
 
 impl SampleCounts {
     pub fn total_rays(&self) -> u64 {
-        self.camera_rays + self.shadow_rays + self.hemisphere_rays
+        self.camera_rays + self.shadow_rays + self.bounce_rays
     }
 
     pub fn add(&mut self, o: &SampleCounts) {
         self.camera_rays += o.camera_rays;
         self.shadow_rays += o.shadow_rays;
-        self.hemisphere_rays += o.hemisphere_rays;
+        self.bounce_rays += o.bounce_rays;
+        self.spherical_samples += o.spherical_samples;
+        self.area_samples += o.area_samples;
     }
 }
 
@@ -58,6 +74,28 @@ struct ShadingPoint {
     brdf: Brdf,
 }
 
+impl ShadingPoint {
+    fn context(&self) -> ShadingContext {
+        ShadingContext {
+            p: self.p,
+            n: self.ns,
+        }
+    }
+}
+
+/// The power heuristic (β = 2) weight of a sample drawn with density `p_a` against `p_b`.
+#[inline]
+pub fn power_heuristic(p_a: f32, p_b: f32) -> f32 {
+    let (a, b) = (p_a * p_a, p_b * p_b);
+    if a == 0.0 {
+        0.0
+    } else if a.is_infinite() {
+        1.0
+    } else {
+        a / (a + b)
+    }
+}
+
 impl Estimator<'_> {
     /// Radiance arriving at the camera along the unit direction `dir` from `origin`.
     pub fn radiance(
@@ -75,7 +113,15 @@ impl Estimator<'_> {
         let emitted = self.emission_at(hit.triangle, wo);
         let x = self.shading_point(&hit, wo);
         let reflected = match self.strategy {
-            Strategy::LightArea => self.light_area(&x, rng, counts),
+            Strategy::LightArea => self.light_samples(&x, Technique::Area, false, rng, counts),
+            Strategy::LightSolidAngle => {
+                self.light_samples(&x, Technique::SolidAngle, false, rng, counts)
+            }
+            Strategy::Bsdf => self.bsdf_samples(&x, false, rng, counts),
+            Strategy::Mis => {
+                self.light_samples(&x, Technique::SolidAngle, true, rng, counts)
+                    + self.bsdf_samples(&x, true, rng, counts)
+            }
             Strategy::HemisphereUniform | Strategy::HemisphereCosine => {
                 self.hemisphere(&x, rng, counts)
             }
@@ -116,45 +162,174 @@ impl Estimator<'_> {
         }
     }
 
-    /// Σ over K lights and N area samples of f · Le · V · G / (K · N · p_l · p(x')).
-    fn light_area(&self, x: &ShadingPoint, rng: &mut PixelRng, counts: &mut SampleCounts) -> Vec3 {
+    /// Σ over K lights and N samples of f · Le · V · G / (K · N · p_l · p(x')), each weighted by
+    /// the power heuristic against BSDF sampling when `mis`.
+    fn light_samples(
+        &self,
+        x: &ShadingPoint,
+        technique: Technique,
+        mis: bool,
+        rng: &mut PixelRng,
+        counts: &mut SampleCounts,
+    ) -> Vec3 {
         let Some(selector) = self.selector else {
             return Vec3::ZERO;
         };
+        let ctx = x.context();
         let (k, n) = (self.k as f32, self.n as f32);
         let mut sum = Vec3::ZERO;
         for _ in 0..self.k {
-            let (l, p_l) = selector.sample(rng.next_f64());
-            let light = &self.lights.lights[l];
+            let Some((l, p_l)) = selector.sample(self.lights, &ctx, rng.next_f64()) else {
+                continue;
+            };
             let p_l = p_l as f32;
-            for _ in 0..self.n {
-                let x_light = light.sample_area(rng.next_2d());
-                let p_x = 1.0 / light.area;
-                let to_light = x_light - x.p;
-                let dist2 = to_light.length_squared();
-                let wi = to_light / dist2.sqrt();
-                if x.ng.dot(wi) <= 0.0 {
-                    continue;
+            match &self.lights.lights[l] {
+                Light::Triangle(light) => {
+                    for _ in 0..self.n {
+                        let u = rng.next_2d();
+                        let (f_le_g, p_x, w) =
+                            self.triangle_sample(x, light, p_l, technique, mis, u, counts);
+                        sum += f_le_g * w / (k * n * p_l * p_x);
+                    }
                 }
-                let le = light.emitted(-wi);
-                let f = x.brdf.eval(x.ns, x.wo, wi);
-                if le == Vec3::ZERO || f == Vec3::ZERO {
-                    continue;
-                }
-                let g = x.ns.dot(wi) * light.normal.dot(wi).abs() / dist2;
-                counts.shadow_rays += 1;
-                let light_side = if light.normal.dot(wi) < 0.0 {
-                    light.normal
-                } else {
-                    -light.normal
-                };
-                if self.accel.segment_occluded(x.p, x.ng, x_light, light_side) {
-                    continue;
-                }
-                sum += f * le * g / (k * n * p_l * p_x);
+                delta => sum += self.delta_sample(x, delta, counts) / (k * p_l),
             }
         }
         sum
+    }
+
+    /// One point x' on a triangle light: (f · Le · V · G, p(x'), MIS weight), G and p(x') in the
+    /// measure the point was drawn in. A sample that carries no light returns p(x') = 1 and zero.
+    #[allow(clippy::too_many_arguments)]
+    fn triangle_sample(
+        &self,
+        x: &ShadingPoint,
+        light: &TriangleLight,
+        p_l: f32,
+        technique: Technique,
+        mis: bool,
+        u: [f32; 2],
+        counts: &mut SampleCounts,
+    ) -> (Vec3, f32, f32) {
+        const NOTHING: (Vec3, f32, f32) = (Vec3::ZERO, 1.0, 0.0);
+        let Some(s) = light.sample(x.p, technique, u) else {
+            return NOTHING;
+        };
+        if s.spherical {
+            counts.spherical_samples += 1;
+        } else {
+            counts.area_samples += 1;
+        }
+        let wi = s.wi;
+        if x.ng.dot(wi) <= 0.0 {
+            return NOTHING;
+        }
+        let le = light.emitted(-wi);
+        let f = x.brdf.eval(x.ns, x.wo, wi);
+        if le == Vec3::ZERO || f == Vec3::ZERO {
+            return NOTHING;
+        }
+        counts.shadow_rays += 1;
+        let light_side = if light.normal.dot(wi) < 0.0 {
+            light.normal
+        } else {
+            -light.normal
+        };
+        if self.accel.segment_occluded(x.p, x.ng, s.point, light_side) {
+            return NOTHING;
+        }
+        let g = x.ns.dot(wi) * s.jacobian;
+        let weight = if mis {
+            // Both densities in solid angle: p_light = p_l · p(x') / jacobian.
+            power_heuristic(p_l * s.p_x / s.jacobian, x.brdf.pdf(x.ns, x.wo, wi))
+        } else {
+            1.0
+        };
+        (f * le * g, s.p_x, weight)
+    }
+
+    /// f · I·falloff/r² (or E) · V · cosθ for a delta light, sampled exactly.
+    fn delta_sample(&self, x: &ShadingPoint, light: &Light, counts: &mut SampleCounts) -> Vec3 {
+        let Some(s) = light.sample_delta(x.p) else {
+            return Vec3::ZERO;
+        };
+        if x.ng.dot(s.wi) <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let f = x.brdf.eval(x.ns, x.wo, s.wi);
+        if f == Vec3::ZERO || s.li == Vec3::ZERO {
+            return Vec3::ZERO;
+        }
+        counts.shadow_rays += 1;
+        let origin = offset_ray_origin(x.p, x.ng);
+        let blocked = if s.dist.is_finite() {
+            let to_light = x.p + s.wi * s.dist - origin;
+            let dist = to_light.length();
+            self.accel.occluded(origin, to_light / dist, dist)
+        } else {
+            self.accel.occluded(origin, s.wi, f32::INFINITY)
+        };
+        if blocked {
+            return Vec3::ZERO;
+        }
+        f * s.li * x.ns.dot(s.wi)
+    }
+
+    /// Σ over K·N BRDF-sampled directions of f · Le · cosθ / (K · N · p(ω)), each weighted by
+    /// the power heuristic against light sampling when `mis`.
+    fn bsdf_samples(
+        &self,
+        x: &ShadingPoint,
+        mis: bool,
+        rng: &mut PixelRng,
+        counts: &mut SampleCounts,
+    ) -> Vec3 {
+        let samples = (self.k * self.n) as f32;
+        let origin = offset_ray_origin(x.p, x.ng);
+        let mut sum = Vec3::ZERO;
+        for _ in 0..self.k * self.n {
+            let u_lobe = rng.next_f32();
+            let Some(wi) = x.brdf.sample(x.ns, x.wo, u_lobe, rng.next_2d()) else {
+                continue;
+            };
+            if x.ng.dot(wi) <= 0.0 {
+                continue;
+            }
+            let pdf = x.brdf.pdf(x.ns, x.wo, wi);
+            counts.bounce_rays += 1;
+            let Some(hit) = self.accel.closest_hit(origin, wi, f32::INFINITY) else {
+                continue;
+            };
+            let le = self.emission_at(hit.triangle, -wi);
+            if le == Vec3::ZERO || pdf <= 0.0 {
+                continue;
+            }
+            let weight = if mis {
+                self.bsdf_mis_weight(x, &hit, wi, pdf)
+            } else {
+                1.0
+            };
+            let f = x.brdf.eval(x.ns, x.wo, wi);
+            sum += f * le * x.ns.dot(wi) * weight / (samples * pdf);
+        }
+        sum
+    }
+
+    /// Power-heuristic weight of a BSDF sample that hit an emitter, against the light sampler's
+    /// density for the same direction: p_l(light | x) · p(ω | light), solid-angle technique.
+    fn bsdf_mis_weight(&self, x: &ShadingPoint, hit: &Hit, wi: Vec3, pdf_bsdf: f32) -> f32 {
+        let (Some(selector), Some(l)) =
+            (self.selector, self.lights.light_of_triangle(hit.triangle))
+        else {
+            return 1.0;
+        };
+        let Light::Triangle(light) = &self.lights.lights[l] else {
+            return 1.0;
+        };
+        let p_l = selector.pmf(self.lights, &x.context(), l) as f32;
+        let point = x.p + wi * hit.t;
+        let p_light = p_l * light.pdf_solid_angle(x.p, Technique::SolidAngle, point);
+        power_heuristic(pdf_bsdf, p_light)
     }
 
     /// Σ over K·N directions of f · Le · cosθ / (K · N · p(ω)), uniform or cosine p(ω).
@@ -177,7 +352,7 @@ impl Estimator<'_> {
             if x.ng.dot(wi) <= 0.0 || pdf <= 0.0 {
                 continue;
             }
-            counts.hemisphere_rays += 1;
+            counts.bounce_rays += 1;
             let Some(hit) = self.accel.closest_hit(origin, wi, f32::INFINITY) else {
                 continue;
             };
@@ -189,5 +364,26 @@ impl Estimator<'_> {
             sum += f * le * local.z / (samples as f32 * pdf);
         }
         sum
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::power_heuristic;
+
+    #[test]
+    fn power_heuristic_weights_of_a_pair_sum_to_one() {
+        for (a, b) in [
+            (1.0f32, 1.0),
+            (0.3, 7.0),
+            (1e-20, 1e10),
+            (5.0, 0.0),
+            (0.0, 2.0),
+            (f32::INFINITY, 1.0),
+        ] {
+            let sum = power_heuristic(a, b) + power_heuristic(b, a);
+            assert!((sum - 1.0).abs() < 1e-6, "w({a},{b}) + w({b},{a}) = {sum}");
+        }
+        assert_eq!(power_heuristic(1.0, 3.0), 0.1);
     }
 }

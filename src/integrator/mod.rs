@@ -1,9 +1,11 @@
 //! Direct lighting: the K×N estimator and its baselines, and the parallel tile loop.
 
 mod estimator;
+mod prepared;
 mod tiles;
 
-pub use estimator::{Estimator, SampleCounts};
+pub use estimator::{power_heuristic, Estimator, SampleCounts};
+pub use prepared::PreparedScene;
 pub use tiles::{render, RenderOptions, RenderStats};
 
 /// How the reflected part of direct lighting is estimated at the first hit.
@@ -12,6 +14,13 @@ pub use tiles::{render, RenderOptions, RenderStats};
 pub enum Strategy {
     /// K lights from the selector, N uniform points on each (area measure), one shadow ray each.
     LightArea,
+    /// As light-area, but points uniform in the triangle's solid angle (Arvo 1995), with area
+    /// sampling when Ω < 3e-4 sr or Ω > 6.22 sr.
+    LightSolidAngle,
+    /// K·N directions from the BRDF (cosine diffuse lobe, GGX visible normals); one ray each.
+    Bsdf,
+    /// Each light-solid-angle sample plus one BSDF sample, power heuristic; two rays per slot.
+    Mis,
     /// K·N directions uniform on the hemisphere; one ray each, adding the emission it hits.
     HemisphereUniform,
     /// K·N cosine-distributed directions; one ray each, adding the emission it hits.

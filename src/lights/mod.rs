@@ -1,8 +1,16 @@
-//! Lights: one per emissive triangle, with its power for selection and area sampling.
+//! Lights: one per emissive triangle plus the scene's punctual lights, each with the power used
+//! for selection and its own sampling routine.
+
+pub mod polygon;
+pub mod punctual;
+pub mod spherical_triangle;
+pub mod triangle;
 
 use glam::Vec3;
 
-use crate::sampling::warp;
+pub use punctual::{DeltaSample, DirectionalLight, PointLight};
+pub use triangle::{Technique, TriangleLight, TriangleSample};
+
 use crate::scene::Scene;
 
 /// Rec.709 luminance of linear RGB.
@@ -19,74 +27,118 @@ pub fn emits_toward(n: Vec3, two_sided: bool, w: Vec3) -> bool {
     c > 0.0 || (two_sided && c < 0.0)
 }
 
-/// An emissive triangle of constant radiance: p(b1, b2) = p0 + b1·e1 + b2·e2.
+/// One light of any kind (static dispatch on the hot path).
 #[derive(Clone, Debug)]
-pub struct TriangleLight {
-    pub p0: Vec3,
-    pub e1: Vec3,
-    pub e2: Vec3,
-    /// Unit normal of the front face.
-    pub normal: Vec3,
-    pub area: f32,
-    /// Emitted radiance, W·sr⁻¹·m⁻².
-    pub radiance: Vec3,
-    pub two_sided: bool,
+pub enum Light {
+    Triangle(TriangleLight),
+    /// A point light, or a spot light when it has a cone.
+    Point(PointLight),
+    Directional(DirectionalLight),
 }
 
-impl TriangleLight {
-    /// Emitted power used for selection: Φ = π·A·luminance(L), doubled when two-sided (f64).
+impl Light {
+    /// Φ used for selection (f64): π·A·luminance(L) (×2 two-sided), 4π·luminance(I), π·R²·luminance(E).
     pub fn power(&self) -> f64 {
-        let sides = if self.two_sided { 2.0 } else { 1.0 };
-        std::f64::consts::PI * self.area as f64 * luminance(self.radiance) as f64 * sides
+        match self {
+            Light::Triangle(t) => t.power(),
+            Light::Point(p) => p.power(),
+            Light::Directional(d) => d.power(),
+        }
     }
 
-    /// A point uniform over the triangle: pdf 1/A in area measure.
+    /// The exact sample of a delta light at p (None for area lights).
     #[inline]
-    pub fn sample_area(&self, u: [f32; 2]) -> Vec3 {
-        let (b1, b2) = warp::uniform_triangle(u);
-        self.p0 + b1 * self.e1 + b2 * self.e2
-    }
-
-    /// Radiance leaving the light toward unit direction `w`.
-    #[inline]
-    pub fn emitted(&self, w: Vec3) -> Vec3 {
-        if emits_toward(self.normal, self.two_sided, w) {
-            self.radiance
-        } else {
-            Vec3::ZERO
+    pub fn sample_delta(&self, p: Vec3) -> Option<DeltaSample> {
+        match self {
+            Light::Triangle(_) => None,
+            Light::Point(l) => l.sample(p),
+            Light::Directional(d) => Some(d.sample()),
         }
     }
 }
 
-/// All lights of a scene.
+/// All lights of a scene, and which light each emissive triangle is.
 #[derive(Clone, Debug, Default)]
 pub struct Lights {
-    pub lights: Vec<TriangleLight>,
+    pub lights: Vec<Light>,
+    /// Scene triangle → light index (u32::MAX for non-emissive triangles), for MIS: a BSDF ray
+    /// that hits an emitter needs that light's selection probability.
+    light_of_triangle: Vec<u32>,
 }
 
 impl Lights {
-    /// One light per triangle whose material emits.
+    /// One light per triangle whose material emits, then the punctual lights.
     pub fn from_scene(scene: &Scene) -> Lights {
-        let lights = scene
-            .triangles
-            .iter()
-            .filter_map(|t| {
-                let m = &scene.materials[t.material as usize];
-                m.is_emissive().then(|| {
-                    let [p0, p1, p2] = t.positions;
-                    TriangleLight {
-                        p0,
-                        e1: p1 - p0,
-                        e2: p2 - p0,
-                        normal: t.geometric_normal(),
-                        area: t.area(),
-                        radiance: m.emission,
-                        two_sided: m.double_sided,
-                    }
-                })
-            })
-            .collect();
-        Lights { lights }
+        let mut lights = Vec::new();
+        let mut triangle_of_light = Vec::new();
+        for (i, t) in scene.triangles.iter().enumerate() {
+            let m = &scene.materials[t.material as usize];
+            if m.is_emissive() {
+                let [p0, p1, p2] = t.positions;
+                lights.push(Light::Triangle(TriangleLight {
+                    p0,
+                    e1: p1 - p0,
+                    e2: p2 - p0,
+                    normal: t.geometric_normal(),
+                    area: t.area(),
+                    radiance: m.emission,
+                    two_sided: m.double_sided,
+                    triangle: i as u32,
+                }));
+                triangle_of_light.push(i);
+            }
+        }
+        let (lo, hi) = scene.bounds();
+        let radius = 0.5 * (hi - lo).length();
+        lights.extend(
+            scene
+                .punctual
+                .iter()
+                .map(|l| punctual::from_punctual(l, radius)),
+        );
+        let mut out = Lights {
+            lights,
+            light_of_triangle: Vec::new(),
+        };
+        out.index_triangles(scene.triangles.len());
+        out
+    }
+
+    fn index_triangles(&mut self, triangles: usize) {
+        self.light_of_triangle = vec![u32::MAX; triangles];
+        for (l, light) in self.lights.iter().enumerate() {
+            if let Light::Triangle(t) = light {
+                self.light_of_triangle[t.triangle as usize] = l as u32;
+            }
+        }
+    }
+
+    /// Reorders the lights so that `order[k]` becomes light k; lights not named keep their
+    /// relative order after them. (The light BVH wants its leaves' lights contiguous.)
+    pub fn reorder(&mut self, order: &[u32]) {
+        let mut named = vec![false; self.lights.len()];
+        let mut next: Vec<Light> = Vec::with_capacity(self.lights.len());
+        for &i in order {
+            named[i as usize] = true;
+            next.push(self.lights[i as usize].clone());
+        }
+        next.extend(
+            self.lights
+                .iter()
+                .zip(&named)
+                .filter(|(_, n)| !**n)
+                .map(|(l, _)| l.clone()),
+        );
+        self.lights = next;
+        let triangles = self.light_of_triangle.len();
+        self.index_triangles(triangles);
+    }
+
+    /// The light that scene triangle `t` is, if it emits.
+    #[inline]
+    pub fn light_of_triangle(&self, t: u32) -> Option<usize> {
+        let l = self.light_of_triangle[t as usize];
+        (l != u32::MAX).then_some(l as usize)
     }
 
     pub fn len(&self) -> usize {
@@ -97,38 +149,28 @@ impl Lights {
         self.lights.is_empty()
     }
 
+    pub fn triangle_count(&self) -> usize {
+        self.lights
+            .iter()
+            .filter(|l| matches!(l, Light::Triangle(_)))
+            .count()
+    }
+
+    /// The emissive triangles.
+    pub fn triangles(&self) -> impl Iterator<Item = &TriangleLight> {
+        self.lights.iter().filter_map(|l| match l {
+            Light::Triangle(t) => Some(t),
+            _ => None,
+        })
+    }
+
     /// Φ of every light (f64).
     pub fn powers(&self) -> Vec<f64> {
-        self.lights.iter().map(TriangleLight::power).collect()
+        self.lights.iter().map(Light::power).collect()
     }
 
     /// Total emitted power Σ Φ, summed in f64.
     pub fn total_power(&self) -> f64 {
-        self.lights.iter().map(TriangleLight::power).sum()
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn power_is_pi_area_luminance_doubled_when_two_sided() {
-        let mut l = TriangleLight {
-            p0: Vec3::ZERO,
-            e1: Vec3::X * 2.0,
-            e2: Vec3::Y,
-            normal: Vec3::Z,
-            area: 1.0,
-            radiance: Vec3::new(1.0, 1.0, 1.0),
-            two_sided: false,
-        };
-        assert!((l.power() - std::f64::consts::PI).abs() < 1e-6);
-        l.two_sided = true;
-        assert!((l.power() - 2.0 * std::f64::consts::PI).abs() < 1e-6);
-        assert_eq!(l.emitted(-Vec3::Z), l.radiance);
-        l.two_sided = false;
-        assert_eq!(l.emitted(-Vec3::Z), Vec3::ZERO);
-        assert_eq!(l.emitted(Vec3::Z), l.radiance);
+        self.lights.iter().map(Light::power).sum()
     }
 }

@@ -47,6 +47,9 @@ pub struct AliasTable {
 }
 
 impl AliasTable {
+    /// Bytes per entry: an f64 threshold, the f64 exact pmf and a u32 alias, padded to 24.
+    pub const BYTES_PER_ENTRY: usize = std::mem::size_of::<Bin>();
+
     /// Builds the table for `weights` in O(n).
     ///
     /// Returns `None` (the caller then falls back to uniform selection, or

@@ -14,7 +14,9 @@ use glam::{Mat3, Mat4, Vec2, Vec3};
 use gltf::accessor::{DataType, Dimensions};
 use gltf::camera::Projection;
 
-use super::{geometric_normal, Camera, LoadStats, Material, Scene, Triangle};
+use super::{
+    geometric_normal, Camera, LoadStats, Material, PunctualKind, PunctualLight, Scene, Triangle,
+};
 
 /// Which of the scene's perspective cameras to use, by position in node order or by name.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -88,6 +90,7 @@ pub fn load_gltf(path: &Path, camera: &CameraChoice) -> Result<Scene, LoadError>
     let mut triangles = Vec::new();
     let mut stats = LoadStats::default();
     let mut cameras = Vec::new();
+    let mut punctual = Vec::new();
     let mut stack: Vec<(gltf::Node, Mat4, usize)> =
         scene.nodes().map(|n| (n, Mat4::IDENTITY, 0)).collect();
     stack.reverse();
@@ -124,8 +127,8 @@ pub fn load_gltf(path: &Path, camera: &CameraChoice) -> Result<Scene, LoadError>
         if let Some(cam) = node.camera() {
             cameras.push((node.clone(), cam, world));
         }
-        if node.light().is_some() {
-            stats.ignored_punctual_lights += 1;
+        if let Some(light) = node.light() {
+            punctual.push(convert_light(&light, &world));
         }
         let children: Vec<_> = node.children().collect();
         stack.extend(children.into_iter().rev().map(|c| (c, world, depth + 1)));
@@ -133,10 +136,11 @@ pub fn load_gltf(path: &Path, camera: &CameraChoice) -> Result<Scene, LoadError>
 
     let camera = choose_camera(&cameras, camera).map_err(|m| invalid("camera".into(), m))?;
     let materials = loader.materials;
+    let scene_element = format!("scene {}", scene.index());
     let mut scene = Scene::new(triangles, materials, camera)
-        .map_err(|m| invalid(format!("scene {}", scene.index()), m))?;
+        .and_then(|s| s.with_punctual(punctual))
+        .map_err(|m| invalid(scene_element, m))?;
     scene.stats.skipped_primitives = stats.skipped_primitives;
-    scene.stats.ignored_punctual_lights = stats.ignored_punctual_lights;
     scene.stats.degenerate_triangles += stats.degenerate_triangles;
     Ok(scene)
 }
@@ -422,6 +426,34 @@ fn convert_material(m: &gltf::Material) -> Material {
         specular: specular.clamp(0.0, 1.0),
         emission: (Vec3::from(m.emissive_factor()) * strength).max(Vec3::ZERO),
         double_sided: m.double_sided(),
+    }
+}
+
+/// A KHR_lights_punctual light placed by its node: at the node's origin, pointing down its −Z.
+/// glTF's photometric intensity (cd, lx) is read as radiometric (W/sr, W/m²); `range` is ignored
+/// (physical inverse-square falloff everywhere).
+fn convert_light(light: &gltf::khr_lights_punctual::Light, world: &Mat4) -> PunctualLight {
+    use gltf::khr_lights_punctual::Kind;
+    let kind = match light.kind() {
+        Kind::Point => PunctualKind::Point,
+        Kind::Directional => PunctualKind::Directional,
+        Kind::Spot {
+            inner_cone_angle,
+            outer_cone_angle,
+        } => {
+            let outer = outer_cone_angle.clamp(0.0, std::f32::consts::FRAC_PI_2);
+            let inner = inner_cone_angle.clamp(0.0, outer);
+            PunctualKind::Spot {
+                cos_inner: inner.cos(),
+                cos_outer: outer.cos(),
+            }
+        }
+    };
+    PunctualLight {
+        kind,
+        position: world.transform_point3(Vec3::ZERO),
+        direction: world.transform_vector3(-Vec3::Z).normalize_or(-Vec3::Z),
+        intensity: Vec3::from(light.color()) * light.intensity(),
     }
 }
 

@@ -129,8 +129,29 @@ pub struct LoadStats {
     pub degenerate_triangles: usize,
     /// Primitives in a mode other than TRIANGLES (points, lines, strips, fans).
     pub skipped_primitives: usize,
-    /// KHR_lights_punctual lights present in the file (not yet rendered).
-    pub ignored_punctual_lights: usize,
+}
+
+/// The kind of a KHR_lights_punctual light.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PunctualKind {
+    Point,
+    /// Smooth falloff between the inner and outer cone (glTF's spot attenuation).
+    Spot {
+        cos_inner: f32,
+        cos_outer: f32,
+    },
+    Directional,
+}
+
+/// A KHR_lights_punctual light in world space. `intensity` = color × intensity, taken as
+/// radiant intensity (W/sr) for point and spot lights and irradiance (W/m²) for directional ones.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PunctualLight {
+    pub kind: PunctualKind,
+    pub position: Vec3,
+    /// Unit direction the light travels (the node's local −Z); unused for point lights.
+    pub direction: Vec3,
+    pub intensity: Vec3,
 }
 
 /// A validated scene: at least one triangle, every material index in range, every position
@@ -141,6 +162,7 @@ pub struct Scene {
     pub materials: Vec<Material>,
     /// The camera the file chose (or None when the file has no perspective camera).
     pub camera: Option<Camera>,
+    pub punctual: Vec<PunctualLight>,
     pub stats: LoadStats,
 }
 
@@ -178,8 +200,24 @@ impl Scene {
             triangles: kept,
             materials,
             camera,
+            punctual: Vec::new(),
             stats,
         })
+    }
+
+    /// Adds punctual lights (rejecting non-finite or negative ones).
+    pub fn with_punctual(mut self, lights: Vec<PunctualLight>) -> Result<Scene, String> {
+        for (i, l) in lights.iter().enumerate() {
+            let finite =
+                l.position.is_finite() && l.direction.is_finite() && l.intensity.is_finite();
+            if !finite || l.intensity.min_element() < 0.0 {
+                return Err(format!(
+                    "punctual light {i} has a non-finite or negative value"
+                ));
+            }
+        }
+        self.punctual = lights;
+        Ok(self)
     }
 
     pub fn material_of(&self, triangle: usize) -> &Material {

@@ -1,11 +1,21 @@
-//! Light selection: choose one light index with a known probability p_l.
+//! Light selection: choose one light for a shading point with a known probability p_l, and
+//! evaluate that probability for any light (MIS needs it for lights hit by BSDF rays).
 //!
-//! `uniform`: p_l = 1/L. `power`: p_l = Φ_l / ΣΦ through an alias table (O(1) per choice);
-//! lights of zero power are never chosen, and when every light has zero power it falls back to
-//! uniform. Later selectors (light BVH, oracle) depend on the shading point.
+//! `uniform`: p_l = 1/L. `power`: p_l = Φ_l / ΣΦ through an alias table (O(1)); zero-power lights
+//! are never chosen, and all-zero powers fall back to uniform. `bvh`: a light BVH traversed by
+//! importance (Conty Estevez & Kulla 2018), directional lights chosen outside the tree by power.
+//! `oracle`: p_l ∝ each light's exact unshadowed contribution to a diffuse receiver (O(L)).
+
+mod bvh;
+pub mod light_bvh;
+pub mod oracle;
+
+use glam::Vec3;
 
 use crate::lights::Lights;
 use crate::sampling::alias::AliasTable;
+
+pub use bvh::BvhSelector;
 
 /// Which selector to build.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
@@ -13,6 +23,15 @@ use crate::sampling::alias::AliasTable;
 pub enum SelectorKind {
     Uniform,
     Power,
+    Bvh,
+    Oracle,
+}
+
+/// The receiver a light is chosen for: position and unit (shading) normal.
+#[derive(Clone, Copy, Debug)]
+pub struct ShadingContext {
+    pub p: Vec3,
+    pub n: Vec3,
 }
 
 /// A built selector over a fixed set of lights.
@@ -20,11 +39,13 @@ pub enum SelectorKind {
 pub enum LightSelector {
     Uniform { count: usize },
     Power(AliasTable),
+    Bvh(BvhSelector),
+    Oracle,
 }
 
 impl LightSelector {
-    /// None when there are no lights. `Power` over all-zero powers falls back to `Uniform`.
-    pub fn new(kind: SelectorKind, lights: &Lights) -> Option<LightSelector> {
+    /// None when there are no lights. `bvh` reorders `lights` (its leaves want contiguous ids).
+    pub fn build(kind: SelectorKind, lights: &mut Lights) -> Option<LightSelector> {
         if lights.is_empty() {
             return None;
         }
@@ -36,26 +57,41 @@ impl LightSelector {
             SelectorKind::Power => AliasTable::new(&lights.powers())
                 .map(LightSelector::Power)
                 .unwrap_or(uniform),
+            SelectorKind::Bvh => LightSelector::Bvh(BvhSelector::build(lights)),
+            SelectorKind::Oracle => LightSelector::Oracle,
         })
     }
 
-    /// Chooses a light from u ∈ [0,1) (53 bits): (index, p_l).
+    /// Chooses a light from u ∈ [0,1) (53 bits): (index, p_l); None when no light can contribute.
     #[inline]
-    pub fn sample(&self, u: f64) -> (usize, f64) {
+    pub fn sample(&self, lights: &Lights, ctx: &ShadingContext, u: f64) -> Option<(usize, f64)> {
         match self {
             LightSelector::Uniform { count } => {
                 let i = ((u * *count as f64) as usize).min(count - 1);
-                (i, 1.0 / *count as f64)
+                Some((i, 1.0 / *count as f64))
             }
-            LightSelector::Power(table) => table.sample_with_pmf(u),
+            LightSelector::Power(table) => Some(table.sample_with_pmf(u)),
+            LightSelector::Bvh(bvh) => bvh.sample(ctx, u),
+            LightSelector::Oracle => oracle::sample(lights, ctx, u),
         }
     }
 
-    /// The probability that `sample` returns `light`.
-    pub fn pmf(&self, light: usize) -> f64 {
+    /// The probability that `sample` returns `light` at this shading point.
+    pub fn pmf(&self, lights: &Lights, ctx: &ShadingContext, light: usize) -> f64 {
         match self {
             LightSelector::Uniform { count } => 1.0 / *count as f64,
             LightSelector::Power(table) => table.pmf(light),
+            LightSelector::Bvh(bvh) => bvh.pmf(ctx, light),
+            LightSelector::Oracle => oracle::pmf(lights, ctx, light),
+        }
+    }
+
+    /// Heap bytes of the selection structure.
+    pub fn bytes(&self) -> usize {
+        match self {
+            LightSelector::Uniform { .. } | LightSelector::Oracle => 0,
+            LightSelector::Power(table) => table.len() * AliasTable::BYTES_PER_ENTRY,
+            LightSelector::Bvh(bvh) => bvh.bytes(),
         }
     }
 }

@@ -1,0 +1,55 @@
+//! A scene made ready to render: its ray accelerator, lights and light selector, built once and
+//! shared by every estimator configuration that uses the same selector.
+
+use std::time::Instant;
+
+use super::{Estimator, Strategy};
+use crate::accel::Accel;
+use crate::lights::Lights;
+use crate::scene::Scene;
+use crate::select::{LightSelector, SelectorKind};
+
+pub struct PreparedScene {
+    pub scene: Scene,
+    pub accel: Accel,
+    pub lights: Lights,
+    /// None when the scene has no lights.
+    pub selector: Option<LightSelector>,
+    /// Seconds spent building the BVH over triangles.
+    pub bvh_seconds: f64,
+    /// Seconds spent building the lights and the selector.
+    pub light_seconds: f64,
+}
+
+impl PreparedScene {
+    pub fn new(scene: Scene, kind: SelectorKind) -> PreparedScene {
+        let t = Instant::now();
+        let accel = Accel::build(&scene);
+        let bvh_seconds = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let mut lights = Lights::from_scene(&scene);
+        let selector = LightSelector::build(kind, &mut lights);
+        let light_seconds = t.elapsed().as_secs_f64();
+        PreparedScene {
+            scene,
+            accel,
+            lights,
+            selector,
+            bvh_seconds,
+            light_seconds,
+        }
+    }
+
+    /// The K×N estimator for one strategy over this scene.
+    pub fn estimator(&self, strategy: Strategy, k: u32, n: u32) -> Estimator<'_> {
+        Estimator {
+            scene: &self.scene,
+            accel: &self.accel,
+            lights: &self.lights,
+            selector: self.selector.as_ref(),
+            strategy,
+            k,
+            n,
+        }
+    }
+}

@@ -1,0 +1,3 @@
+//! Measuring renders: error against a reference.
+
+pub mod metrics;

@@ -1,0 +1,160 @@
+//! The `bvh` selector: bounded lights (triangles, points, spots) in a light BVH; directional
+//! lights, which have no position, chosen outside the tree with probability
+//! Φ_directional / (Φ_directional + Φ_tree), each directional light ∝ its power (π·R²·E over the
+//! scene's bounding sphere). Where the tree's root importance is 0 (nothing in it can reach the
+//! shading point) the directional lights take all the probability.
+
+use glam::Vec3;
+
+use super::light_bvh::{LightBounds, LightBvh};
+use super::ShadingContext;
+use crate::lights::{Light, Lights};
+
+#[derive(Clone, Debug)]
+pub struct BvhSelector {
+    tree: LightBvh,
+    /// Directional lights: (light index, its share of the directional power).
+    infinite: Vec<(usize, f64)>,
+    /// Probability of choosing from the tree where the tree can contribute.
+    p_tree: f64,
+}
+
+/// Light bounds for the tree: a triangle is a box with a normal cone of angle 0 (θe = 90°);
+/// a point light emits in every direction; a spot light within its outer cone.
+fn bounds_of(light: &Light) -> Option<LightBounds> {
+    let phi = light.power() as f32;
+    match light {
+        Light::Triangle(t) => {
+            let (p1, p2) = (t.p0 + t.e1, t.p0 + t.e2);
+            Some(LightBounds {
+                lo: t.p0.min(p1).min(p2),
+                hi: t.p0.max(p1).max(p2),
+                phi,
+                w: t.normal,
+                cos_theta_o: 1.0,
+                cos_theta_e: 0.0,
+                two_sided: t.two_sided,
+            })
+        }
+        Light::Point(p) => {
+            let (w, cos_theta_o) = match p.spot {
+                Some((axis, _, cos_outer)) => (axis, cos_outer),
+                None => (Vec3::Z, -1.0),
+            };
+            Some(LightBounds {
+                lo: p.position,
+                hi: p.position,
+                phi,
+                w,
+                cos_theta_o,
+                // A spot's falloff is inside θo; a small θe keeps the cone test non-degenerate.
+                cos_theta_e: if p.spot.is_some() { 1e-3f32.cos() } else { 0.0 },
+                two_sided: false,
+            })
+        }
+        Light::Directional(_) => None,
+    }
+}
+
+impl BvhSelector {
+    /// Builds the tree and reorders `lights` so that the tree's leaves hold lights 0..M.
+    pub fn build(lights: &mut Lights) -> BvhSelector {
+        let bounds: Vec<LightBounds> = lights
+            .lights
+            .iter()
+            .map(|l| {
+                bounds_of(l).unwrap_or(LightBounds {
+                    lo: Vec3::ZERO,
+                    hi: Vec3::ZERO,
+                    phi: 0.0,
+                    w: Vec3::Z,
+                    cos_theta_o: 1.0,
+                    cos_theta_e: 0.0,
+                    two_sided: false,
+                })
+            })
+            .collect();
+        let (tree, order) = LightBvh::build(&bounds);
+        lights.reorder(&order);
+        let tree_power: f64 = lights.lights[..tree.len()].iter().map(Light::power).sum();
+        let directional: Vec<(usize, f64)> = lights
+            .lights
+            .iter()
+            .enumerate()
+            .filter(|(_, l)| matches!(l, Light::Directional(_)))
+            .map(|(i, l)| (i, l.power()))
+            .filter(|(_, phi)| *phi > 0.0)
+            .collect();
+        let infinite_power: f64 = directional.iter().map(|(_, phi)| phi).sum();
+        let total = tree_power + infinite_power;
+        let p_tree = if tree.is_empty() {
+            0.0
+        } else if total > 0.0 {
+            tree_power / total
+        } else {
+            1.0
+        };
+        let infinite = directional
+            .into_iter()
+            .map(|(i, phi)| (i, phi / infinite_power))
+            .collect();
+        BvhSelector {
+            tree,
+            infinite,
+            p_tree,
+        }
+    }
+
+    /// The probability of choosing from the tree at this shading point.
+    #[inline]
+    fn p_tree_at(&self, ctx: &ShadingContext) -> f64 {
+        if self.infinite.is_empty() || self.tree.root_importance(ctx.p, ctx.n) > 0.0 {
+            self.p_tree
+        } else {
+            0.0
+        }
+    }
+
+    #[inline]
+    pub fn sample(&self, ctx: &ShadingContext, u: f64) -> Option<(usize, f64)> {
+        let p_tree = self.p_tree_at(ctx);
+        let p_infinite = 1.0 - p_tree;
+        if u < p_infinite {
+            let mut acc = 0.0;
+            for &(light, share) in &self.infinite {
+                acc += share * p_infinite;
+                if u < acc {
+                    return Some((light, share * p_infinite));
+                }
+            }
+            return self
+                .infinite
+                .last()
+                .map(|&(light, share)| (light, share * p_infinite));
+        }
+        let u_tree = ((u - p_infinite) / p_tree).min(1.0 - f64::EPSILON);
+        self.tree
+            .sample(ctx.p, ctx.n, u_tree)
+            .map(|(l, p)| (l, p * p_tree))
+    }
+
+    pub fn pmf(&self, ctx: &ShadingContext, light: usize) -> f64 {
+        let p_tree = self.p_tree_at(ctx);
+        if light < self.tree.len() {
+            return self.tree.pmf(ctx.p, ctx.n, light) * p_tree;
+        }
+        let p_infinite = 1.0 - p_tree;
+        self.infinite
+            .iter()
+            .find(|(l, _)| *l == light)
+            .map_or(0.0, |&(_, share)| share * p_infinite)
+    }
+
+    pub fn bytes(&self) -> usize {
+        self.tree.bytes() + self.infinite.len() * std::mem::size_of::<(usize, f64)>()
+    }
+
+    pub fn node_count(&self) -> usize {
+        self.tree.node_count()
+    }
+}
