@@ -82,6 +82,7 @@ fn town_benches(c: &mut Criterion) {
         height: 128,
         spp: 1,
         seed: 0,
+        clamp: None,
     };
     for kind in [SelectorKind::Power, SelectorKind::Bvh] {
         let prepared = PreparedScene::new(scene.clone(), kind);

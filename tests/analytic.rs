@@ -124,6 +124,7 @@ fn check_scene(
         height: SIZE,
         spp,
         seed: 11,
+        clamp: None,
     };
     let (film, stats) = render(&estimator, &camera, &opts);
     assert_eq!(stats.nan_samples + stats.inf_samples, 0);

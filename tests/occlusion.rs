@@ -41,6 +41,7 @@ fn render_scene(scene: &Scene, strategy: Strategy, spp: u32) -> manylights::film
         height: 24,
         spp,
         seed: 3,
+        clamp: None,
     };
     render(&estimator, scene.camera.as_ref().unwrap(), &opts).0
 }

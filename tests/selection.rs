@@ -27,6 +27,7 @@ fn render_with(scene: &Scene, kind: SelectorKind, strategy: Strategy, k: u32, sp
         height: SIZE,
         spp,
         seed: kind as u64 * 7 + 1,
+        clamp: None,
     };
     let (film, stats) = render(&estimator, scene.camera.as_ref().unwrap(), &opts);
     assert_eq!(

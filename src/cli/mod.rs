@@ -6,11 +6,13 @@
 pub mod diff;
 pub mod gen;
 pub mod info;
+pub mod options;
 pub mod render;
 
 use clap::{Parser, Subcommand};
 
 pub const EXIT_FAILURE: i32 = 1;
+pub const EXIT_USAGE: i32 = 2;
 pub const EXIT_BAD_INPUT: i32 = 3;
 
 #[derive(Parser, Debug)]
@@ -48,7 +50,9 @@ pub fn run(cli: Cli) -> i32 {
         Ok(()) => 0,
         Err(e) => {
             eprintln!("error: {e:#}");
-            if e.downcast_ref::<crate::scene::LoadError>().is_some() {
+            if e.downcast_ref::<UsageError>().is_some() {
+                EXIT_USAGE
+            } else if e.downcast_ref::<crate::scene::LoadError>().is_some() {
                 EXIT_BAD_INPUT
             } else {
                 EXIT_FAILURE
@@ -56,3 +60,9 @@ pub fn run(cli: Cli) -> i32 {
         }
     }
 }
+
+/// A combination of options clap cannot reject by itself (e.g. a list where one value is
+/// expected); exits with code 2 like clap's own usage errors.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct UsageError(pub String);

@@ -4,49 +4,23 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use anyhow::{bail, Context};
+use anyhow::bail;
 use clap::Args;
 use serde::Serialize;
 
+use super::options::{EstimatorChoice, RenderOptionsArgs, RENDER_DEFAULTS};
 use crate::image::{write_atomically, write_exr, write_png_preview, RgbImage};
 use crate::integrator::{render, PreparedScene, RenderOptions, RenderStats, Strategy};
-use crate::scene::{load_gltf, Camera, CameraChoice};
+use crate::scene::{load_gltf, Camera, Scene};
 use crate::select::SelectorKind;
 
 #[derive(Args, Debug, Clone)]
 pub struct RenderArgs {
-    /// The scene, .gltf or .glb.
-    pub scene: PathBuf,
+    #[command(flatten)]
+    pub options: RenderOptionsArgs,
     /// Output OpenEXR file (float32 RGB of the per-pixel mean).
     #[arg(short, long)]
     pub output: PathBuf,
-    /// Camera samples per pixel.
-    #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
-    pub spp: u32,
-    /// Lights chosen per camera sample (K).
-    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=4096))]
-    pub k: u32,
-    /// Points sampled on each chosen light (N).
-    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=4096))]
-    pub n: u32,
-    #[arg(long, value_enum, default_value_t = SelectorKind::Power)]
-    pub selector: SelectorKind,
-    #[arg(long, value_enum, default_value_t = Strategy::LightArea)]
-    pub strategy: Strategy,
-    #[arg(long, default_value_t = 0)]
-    pub seed: u64,
-    /// Image width in pixels.
-    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=16384))]
-    pub width: u32,
-    /// Image height in pixels (default: from the camera's aspect ratio, else square).
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16384))]
-    pub height: Option<u32>,
-    /// Worker threads (default: all cores). The image does not depend on it.
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
-    pub threads: Option<u32>,
-    /// Camera node index (in scene order) or name; default the first perspective camera.
-    #[arg(long)]
-    pub camera: Option<CameraChoice>,
     /// Add the per-pixel variance of the mean as channels variance.R/G/B.
     #[arg(long)]
     pub variance: bool,
@@ -84,6 +58,9 @@ pub struct RenderSummary {
     pub selector: SelectorKind,
     pub strategy: Strategy,
     pub seed: u64,
+    /// Per-channel clamp of each camera sample (None: unbiased).
+    pub clamp: Option<f32>,
+    pub biased: bool,
     pub threads: usize,
     pub triangles: usize,
     pub lights: usize,
@@ -107,14 +84,10 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     if let Some(p) = &args.json {
         check_output_path(p, "json")?;
     }
-    let pool = match args.threads {
-        Some(t) => rayon::ThreadPoolBuilder::new()
-            .num_threads(t as usize)
-            .build(),
-        None => rayon::ThreadPoolBuilder::new().build(),
-    }
-    .context("cannot start the worker threads")?;
-    let summary = pool.install(|| render_scene(args))?;
+    let choice = args.options.estimator(&RENDER_DEFAULTS)?;
+    let spp = args.options.single_spp(&RENDER_DEFAULTS)?;
+    let pool = args.options.thread_pool()?;
+    let summary = pool.install(|| render_scene(args, choice, spp))?;
     print_summary(&summary);
     if let Some(path) = &args.json {
         write_atomically(path, |w| {
@@ -127,7 +100,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
 }
 
 /// Fails early (before a long render) when an output file could never be written.
-fn check_output_path(path: &Path, extension: &str) -> anyhow::Result<()> {
+pub(crate) fn check_output_path(path: &Path, extension: &str) -> anyhow::Result<()> {
     if path
         .extension()
         .and_then(|e| e.to_str())
@@ -154,37 +127,36 @@ fn check_output_path(path: &Path, extension: &str) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn render_scene(args: &RenderArgs) -> anyhow::Result<RenderSummary> {
+fn render_scene(
+    args: &RenderArgs,
+    choice: EstimatorChoice,
+    spp: u32,
+) -> anyhow::Result<RenderSummary> {
+    let o = &args.options;
     let mut seconds = Timings::default();
     let t = Instant::now();
-    let scene = load_gltf(&args.scene, &args.camera.clone().unwrap_or_default())?;
+    let scene = load_gltf(&o.scene, &o.camera.clone().unwrap_or_default())?;
     seconds.load = t.elapsed().as_secs_f64();
 
-    let camera = scene.camera.clone().unwrap_or_else(|| {
-        eprintln!(
-            "note: {} has no perspective camera; framing its bounds from +Z",
-            args.scene.display()
-        );
-        let (lo, hi) = scene.bounds();
-        Camera::framing(lo, hi)
-    });
-    let (width, height) = camera.resolution(args.width, args.height);
+    let camera = scene_camera(&scene, &o.scene);
+    let (width, height) = camera.resolution(o.width, o.height);
 
-    let prepared = PreparedScene::new(scene, args.selector);
+    let prepared = PreparedScene::new(scene, choice.selector);
     seconds.bvh_build = prepared.bvh_seconds;
     seconds.light_build = prepared.light_seconds;
     if prepared.lights.is_empty() {
         eprintln!(
             "note: {} has no lights: only black will be rendered",
-            args.scene.display()
+            o.scene.display()
         );
     }
-    let estimator = prepared.estimator(args.strategy, args.k, args.n);
+    let estimator = prepared.estimator(choice.strategy, choice.k, choice.n);
     let opts = RenderOptions {
         width,
         height,
-        spp: args.spp,
-        seed: args.seed,
+        spp,
+        seed: o.seed,
+        clamp: o.clamp,
     };
     let t = Instant::now();
     let (film, stats) = render(&estimator, &camera, &opts);
@@ -209,16 +181,18 @@ fn render_scene(args: &RenderArgs) -> anyhow::Result<RenderSummary> {
 
     let rays_total = stats.rays.total_rays();
     Ok(RenderSummary {
-        scene: args.scene.clone(),
+        scene: o.scene.clone(),
         output: args.output.clone(),
         width,
         height,
-        spp: args.spp,
-        k: args.k,
-        n: args.n,
-        selector: args.selector,
-        strategy: args.strategy,
-        seed: args.seed,
+        spp,
+        k: choice.k,
+        n: choice.n,
+        selector: choice.selector,
+        strategy: choice.strategy,
+        seed: o.seed,
+        clamp: o.clamp,
+        biased: o.clamp.is_some(),
         threads: rayon::current_num_threads(),
         triangles: prepared.scene.triangles.len(),
         lights: prepared.lights.len(),
@@ -231,6 +205,18 @@ fn render_scene(args: &RenderArgs) -> anyhow::Result<RenderSummary> {
         image_mean: film.image_mean(),
         seconds,
         stats,
+    })
+}
+
+/// The scene's camera, or one framing its bounds from +Z (with a note) when it has none.
+pub(crate) fn scene_camera(scene: &Scene, path: &Path) -> Camera {
+    scene.camera.clone().unwrap_or_else(|| {
+        eprintln!(
+            "note: {} has no perspective camera; framing its bounds from +Z",
+            path.display()
+        );
+        let (lo, hi) = scene.bounds();
+        Camera::framing(lo, hi)
     })
 }
 
@@ -248,6 +234,9 @@ fn print_summary(s: &RenderSummary) {
         "image     {}x{}, {} spp, K x N = {} x {}, selector {:?}, strategy {:?}, seed {}, {} threads",
         s.width, s.height, s.spp, s.k, s.n, s.selector, s.strategy, s.seed, s.threads
     );
+    if let Some(c) = s.clamp {
+        println!("clamp     each sample clamped to {c} per channel (biased)");
+    }
     let t = &s.seconds;
     println!(
         "seconds   load {:.3}  bvh build {:.3}  light build {:.3}  render {:.3}  write {:.3}",

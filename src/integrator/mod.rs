@@ -9,7 +9,9 @@ pub use prepared::PreparedScene;
 pub use tiles::{render, RenderOptions, RenderStats};
 
 /// How the reflected part of direct lighting is estimated at the first hit.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[derive(
+    Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize, serde::Deserialize,
+)]
 #[serde(rename_all = "kebab-case")]
 pub enum Strategy {
     /// K lights from the selector, N uniform points on each (area measure), one shadow ray each.

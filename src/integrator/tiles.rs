@@ -1,6 +1,7 @@
 //! The parallel render loop: rayon over 16×16 tiles. Each pixel draws from its own random
 //! stream derived from (seed, pixel index), so the image is bit-identical for any thread count.
 
+use glam::Vec3;
 use rayon::prelude::*;
 
 use super::estimator::{Estimator, SampleCounts};
@@ -17,6 +18,8 @@ pub struct RenderOptions {
     /// Camera samples per pixel, each box-filtered (uniform jitter inside the pixel).
     pub spp: u32,
     pub seed: u64,
+    /// Per-channel upper bound on each finite camera sample's radiance (biased when set).
+    pub clamp: Option<f32>,
 }
 
 /// What a render did, summed over all pixels.
@@ -89,7 +92,10 @@ fn render_tile(
                 let l = estimator.radiance(camera.position, dir, &mut rng, &mut stats.rays);
                 stats.camera_samples += 1;
                 match classify(l) {
-                    SampleClass::Finite => pixel.add(l.as_dvec3()),
+                    SampleClass::Finite => {
+                        let l = opts.clamp.map_or(l, |c| l.min(Vec3::splat(c)));
+                        pixel.add(l.as_dvec3())
+                    }
                     SampleClass::Nan => stats.nan_samples += 1,
                     SampleClass::Infinite => stats.inf_samples += 1,
                 }

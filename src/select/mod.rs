@@ -18,7 +18,9 @@ use crate::sampling::alias::AliasTable;
 pub use bvh::BvhSelector;
 
 /// Which selector to build.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[derive(
+    Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize, serde::Deserialize,
+)]
 #[serde(rename_all = "kebab-case")]
 pub enum SelectorKind {
     Uniform,

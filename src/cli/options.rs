@@ -1,0 +1,132 @@
+//! The render options every rendering subcommand shares (render, reference, bench, converge),
+//! with the same names everywhere. Options a sweep can vary (`--spp`, `--selector`,
+//! `--strategy`, `--k`, `--n`) take comma-separated lists; commands that render one
+//! configuration accept exactly one value and fall back to their own default when none is given.
+
+use std::path::PathBuf;
+
+use clap::Args;
+
+use super::UsageError;
+use crate::integrator::Strategy;
+use crate::scene::CameraChoice;
+use crate::select::SelectorKind;
+
+#[derive(Args, Debug, Clone)]
+pub struct RenderOptionsArgs {
+    /// The scene, .gltf or .glb.
+    pub scene: PathBuf,
+    /// Camera samples per pixel (bench and converge: a comma-separated list).
+    #[arg(long, value_delimiter = ',', value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
+    pub spp: Vec<u32>,
+    /// Lights chosen per camera sample, K (bench: a list, crossed with --n unless --kn is given).
+    #[arg(long, value_delimiter = ',', value_parser = clap::value_parser!(u32).range(1..=4096))]
+    pub k: Vec<u32>,
+    /// Points sampled on each chosen light, N (bench: a list).
+    #[arg(long, value_delimiter = ',', value_parser = clap::value_parser!(u32).range(1..=4096))]
+    pub n: Vec<u32>,
+    /// Light selector [default: power; reference: bvh] (bench: a list, also as --selectors).
+    #[arg(long, value_enum, value_delimiter = ',', alias = "selectors")]
+    pub selector: Vec<SelectorKind>,
+    /// Estimation strategy [default: light-area; reference: mis] (bench: a list, also as
+    /// --strategies).
+    #[arg(long, value_enum, value_delimiter = ',', alias = "strategies")]
+    pub strategy: Vec<Strategy>,
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Image width in pixels.
+    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    pub width: u32,
+    /// Image height in pixels (default: from the camera's aspect ratio, else square).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    pub height: Option<u32>,
+    /// Worker threads (default: all cores). The image does not depend on it.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    pub threads: Option<u32>,
+    /// Camera node index (in scene order) or name; default the first perspective camera.
+    #[arg(long)]
+    pub camera: Option<CameraChoice>,
+    /// Clamp each camera sample's radiance per channel to this value (biased: removes
+    /// fireflies at the price of energy; reports mark the configuration biased).
+    #[arg(long, value_parser = positive_finite)]
+    pub clamp: Option<f32>,
+}
+
+/// One estimator configuration: what a single render varies.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct EstimatorChoice {
+    pub selector: SelectorKind,
+    pub strategy: Strategy,
+    pub k: u32,
+    pub n: u32,
+}
+
+/// The defaults of a command that renders one configuration.
+#[derive(Clone, Copy, Debug)]
+pub struct Defaults {
+    pub spp: u32,
+    pub estimator: EstimatorChoice,
+}
+
+/// `render`'s defaults: 16 spp, power selection, light-area sampling, K = N = 1.
+pub const RENDER_DEFAULTS: Defaults = Defaults {
+    spp: 16,
+    estimator: EstimatorChoice {
+        selector: SelectorKind::Power,
+        strategy: Strategy::LightArea,
+        k: 1,
+        n: 1,
+    },
+};
+
+impl RenderOptionsArgs {
+    /// The single estimator configuration of a one-configuration command.
+    pub fn estimator(&self, defaults: &Defaults) -> Result<EstimatorChoice, UsageError> {
+        let d = defaults.estimator;
+        Ok(EstimatorChoice {
+            selector: single("--selector", &self.selector, d.selector)?,
+            strategy: single("--strategy", &self.strategy, d.strategy)?,
+            k: single("--k", &self.k, d.k)?,
+            n: single("--n", &self.n, d.n)?,
+        })
+    }
+
+    /// The single spp of a one-configuration command.
+    pub fn single_spp(&self, defaults: &Defaults) -> Result<u32, UsageError> {
+        single("--spp", &self.spp, defaults.spp)
+    }
+
+    /// A rayon pool with `--threads` workers (default: all cores).
+    pub fn thread_pool(&self) -> anyhow::Result<rayon::ThreadPool> {
+        use anyhow::Context;
+        let mut builder = rayon::ThreadPoolBuilder::new();
+        if let Some(t) = self.threads {
+            builder = builder.num_threads(t as usize);
+        }
+        builder.build().context("cannot start the worker threads")
+    }
+}
+
+/// The one value of a list option, or `default` when it was not given.
+fn single<T: Copy + std::fmt::Debug>(
+    name: &str,
+    values: &[T],
+    default: T,
+) -> Result<T, UsageError> {
+    match values {
+        [] => Ok(default),
+        [v] => Ok(*v),
+        _ => Err(UsageError(format!(
+            "{name} takes one value here, got {values:?} (lists are for bench and converge)"
+        ))),
+    }
+}
+
+fn positive_finite(s: &str) -> Result<f32, String> {
+    let x: f32 = s.parse().map_err(|e| format!("{e}"))?;
+    if x.is_finite() && x > 0.0 {
+        Ok(x)
+    } else {
+        Err(format!("must be a positive finite number, got {s}"))
+    }
+}
