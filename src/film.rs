@@ -1,5 +1,6 @@
 //! Per-pixel accumulation: f64 running mean and sample variance (Welford 1962) of the camera
-//! samples' radiance, with non-finite samples counted and left out.
+//! samples' radiance, with non-finite samples counted and left out; statistics of separate
+//! passes merge exactly (Chan, Golub & LeVeque 1979).
 
 use glam::{DVec3, Vec3};
 
@@ -19,6 +20,21 @@ impl PixelStats {
         let delta = x - self.mean;
         self.mean += delta / self.count as f64;
         self.m2 += delta * (x - self.mean);
+    }
+
+    /// Combines the statistics of two disjoint sets of samples into those of their union
+    /// (Chan et al.): with δ = mean_b − mean_a and n = n_a + n_b,
+    /// mean = mean_a + δ·n_b/n and M2 = M2_a + M2_b + δ²·n_a·n_b/n.
+    pub fn merge(&mut self, other: &PixelStats) {
+        if other.count == 0 {
+            return;
+        }
+        let (na, nb) = (self.count as f64, other.count as f64);
+        let n = na + nb;
+        let delta = other.mean - self.mean;
+        self.mean += delta * (nb / n);
+        self.m2 += other.m2 + delta * delta * (na * nb / n);
+        self.count += other.count;
     }
 
     /// Unbiased sample variance of one sample, s² = M2 / (n − 1).
@@ -67,6 +83,18 @@ pub struct Film {
 }
 
 impl Film {
+    /// Merges the statistics of another render of the same image size, pixel by pixel.
+    pub fn merge(&mut self, other: &Film) {
+        assert_eq!(
+            (self.width, self.height),
+            (other.width, other.height),
+            "films of different sizes"
+        );
+        for (a, b) in self.pixels.iter_mut().zip(&other.pixels) {
+            a.merge(b);
+        }
+    }
+
     pub fn mean_rgb(&self) -> Vec<[f32; 3]> {
         self.pixels
             .iter()
@@ -103,6 +131,25 @@ mod tests {
         assert!((p.mean.x - mean).abs() < 1e-12);
         assert!((p.sample_variance().x - var).abs() < 1e-12);
         assert!((p.variance_of_mean().x - var / n).abs() < 1e-12);
+    }
+
+    #[test]
+    fn merging_passes_equals_accumulating_all_samples_in_one() {
+        let xs = [3.0, -1.0, 0.25, 8.0, 8.0, 1e-4, 42.0, -7.5, 0.0];
+        let mut all = PixelStats::default();
+        xs.iter().for_each(|&x| all.add(DVec3::splat(x)));
+        for split in 0..=xs.len() {
+            let (mut a, mut b) = (PixelStats::default(), PixelStats::default());
+            xs[..split].iter().for_each(|&x| a.add(DVec3::splat(x)));
+            xs[split..].iter().for_each(|&x| b.add(DVec3::splat(x)));
+            a.merge(&b);
+            assert_eq!(a.count, all.count);
+            assert!(
+                (a.mean - all.mean).abs().max_element() < 1e-12,
+                "split {split}"
+            );
+            assert!((a.m2 - all.m2).abs().max_element() < 1e-10, "split {split}");
+        }
     }
 
     #[test]

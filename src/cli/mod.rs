@@ -7,6 +7,7 @@ pub mod diff;
 pub mod gen;
 pub mod info;
 pub mod options;
+pub mod reference;
 pub mod render;
 
 use clap::{Parser, Subcommand};
@@ -30,6 +31,8 @@ pub struct Cli {
 pub enum Command {
     /// Render the direct lighting of a glTF scene to an OpenEXR file.
     Render(render::RenderArgs),
+    /// Render a high-spp reference (with variance layer and JSON sidecar) progressively.
+    Reference(reference::ReferenceArgs),
     /// Print a scene's triangle and light counts, emitted power, bounds and camera.
     Info(info::InfoArgs),
     /// Write one of the built-in scenes as glTF 2.0 (.glb or .gltf).
@@ -42,6 +45,7 @@ pub enum Command {
 pub fn run(cli: Cli) -> i32 {
     let result = match cli.command {
         Command::Render(args) => render::run(&args),
+        Command::Reference(args) => reference::run(&args),
         Command::Info(args) => info::run(&args),
         Command::Gen(args) => gen::run(&args),
         Command::Diff(args) => diff::run(&args),

@@ -9,6 +9,7 @@ use clap::Args;
 
 use super::UsageError;
 use crate::integrator::Strategy;
+use crate::measure::EstimatorChoice;
 use crate::scene::CameraChoice;
 use crate::select::SelectorKind;
 
@@ -50,15 +51,6 @@ pub struct RenderOptionsArgs {
     /// fireflies at the price of energy; reports mark the configuration biased).
     #[arg(long, value_parser = positive_finite)]
     pub clamp: Option<f32>,
-}
-
-/// One estimator configuration: what a single render varies.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-pub struct EstimatorChoice {
-    pub selector: SelectorKind,
-    pub strategy: Strategy,
-    pub k: u32,
-    pub n: u32,
 }
 
 /// The defaults of a command that renders one configuration.

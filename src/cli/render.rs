@@ -8,10 +8,11 @@ use anyhow::bail;
 use clap::Args;
 use serde::Serialize;
 
-use super::options::{EstimatorChoice, RenderOptionsArgs, RENDER_DEFAULTS};
+use super::options::{RenderOptionsArgs, RENDER_DEFAULTS};
 use crate::image::{write_atomically, write_exr, write_png_preview, RgbImage};
 use crate::integrator::{render, PreparedScene, RenderOptions, RenderStats, Strategy};
-use crate::scene::{load_gltf, Camera, Scene};
+use crate::measure::{camera_or_framing, EstimatorChoice};
+use crate::scene::load_gltf;
 use crate::select::SelectorKind;
 
 #[derive(Args, Debug, Clone)]
@@ -138,7 +139,7 @@ fn render_scene(
     let scene = load_gltf(&o.scene, &o.camera.clone().unwrap_or_default())?;
     seconds.load = t.elapsed().as_secs_f64();
 
-    let camera = scene_camera(&scene, &o.scene);
+    let camera = camera_or_framing(&scene, &o.scene);
     let (width, height) = camera.resolution(o.width, o.height);
 
     let prepared = PreparedScene::new(scene, choice.selector);
@@ -205,18 +206,6 @@ fn render_scene(
         image_mean: film.image_mean(),
         seconds,
         stats,
-    })
-}
-
-/// The scene's camera, or one framing its bounds from +Z (with a note) when it has none.
-pub(crate) fn scene_camera(scene: &Scene, path: &Path) -> Camera {
-    scene.camera.clone().unwrap_or_else(|| {
-        eprintln!(
-            "note: {} has no perspective camera; framing its bounds from +Z",
-            path.display()
-        );
-        let (lo, hi) = scene.bounds();
-        Camera::framing(lo, hi)
     })
 }
 

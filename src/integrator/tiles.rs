@@ -34,7 +34,7 @@ pub struct RenderStats {
 }
 
 impl RenderStats {
-    fn add(&mut self, o: &RenderStats) {
+    pub fn add(&mut self, o: &RenderStats) {
         self.camera_samples += o.camera_samples;
         self.rays.add(&o.rays);
         self.nan_samples += o.nan_samples;

@@ -1,3 +1,122 @@
-//! Measuring renders: error against a reference.
+//! Measuring renders: error against a reference, references themselves, progressive rendering
+//! to a budget, benchmark grids, convergence checks, and their reports and plots.
 
 pub mod metrics;
+pub mod progressive;
+pub mod reference;
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use crate::film::Film;
+use crate::image::RgbImage;
+use crate::integrator::Strategy;
+use crate::scene::{load_gltf, Camera, CameraChoice, Scene};
+use crate::select::SelectorKind;
+
+/// One estimator configuration: the selector, the strategy and K × N.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct EstimatorChoice {
+    pub selector: SelectorKind,
+    pub strategy: Strategy,
+    pub k: u32,
+    pub n: u32,
+}
+
+/// A scene loaded for measurement, with the content hash that identifies its references.
+pub struct SceneSetup {
+    pub path: PathBuf,
+    /// FNV-1a of the scene file's bytes.
+    pub hash: u64,
+    pub scene: Scene,
+    pub camera: Camera,
+    /// The `--camera` choice as given (None: the first perspective camera).
+    pub camera_choice: Option<String>,
+    pub width: u32,
+    pub height: u32,
+}
+
+impl SceneSetup {
+    /// Loads `path` with the chosen camera (or one framing the scene) at the requested size.
+    pub fn load(
+        path: &Path,
+        camera: Option<&CameraChoice>,
+        width: u32,
+        height: Option<u32>,
+    ) -> anyhow::Result<SceneSetup> {
+        let scene = load_gltf(path, &camera.cloned().unwrap_or_default())?;
+        // Hash the bytes the loader just accepted (a second read; scenes are small next to a
+        // render and the loader owns its buffer).
+        let bytes = std::fs::read(path).map_err(|source| crate::scene::LoadError::Io {
+            path: path.into(),
+            source,
+        })?;
+        let cam = camera_or_framing(&scene, path);
+        let (width, height) = cam.resolution(width, height);
+        Ok(SceneSetup {
+            path: path.into(),
+            hash: fnv1a64(&bytes),
+            scene,
+            camera: cam,
+            camera_choice: camera.map(|c| match c {
+                CameraChoice::First => "first".into(),
+                CameraChoice::Index(i) => i.to_string(),
+                CameraChoice::Name(n) => n.clone(),
+            }),
+            width,
+            height,
+        })
+    }
+}
+
+/// The scene's camera, or one framing its bounds from +Z (with a note) when it has none.
+pub fn camera_or_framing(scene: &Scene, path: &Path) -> Camera {
+    scene.camera.clone().unwrap_or_else(|| {
+        eprintln!(
+            "note: {} has no perspective camera; framing its bounds from +Z",
+            path.display()
+        );
+        let (lo, hi) = scene.bounds();
+        Camera::framing(lo, hi)
+    })
+}
+
+/// 64-bit FNV-1a (Fowler, Noll & Vo): h = (h ⊕ byte) · 0x100000001b3 from 0xcbf29ce484222325.
+/// Stable across Rust versions and platforms, unlike std's DefaultHasher.
+pub fn fnv1a64(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
+        (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)
+    })
+}
+
+/// The per-pixel mean of a film as an f32 image.
+pub fn mean_image(film: &Film) -> RgbImage {
+    RgbImage {
+        width: film.width as usize,
+        height: film.height as usize,
+        pixels: film.mean_rgb(),
+    }
+}
+
+/// Mean over pixels and channels of the estimated variance of the pixel mean, s²/n.
+pub fn mean_variance(film: &Film) -> f64 {
+    let sum: f64 = film
+        .pixels
+        .iter()
+        .map(|p| p.variance_of_mean().element_sum())
+        .sum();
+    sum / (3 * film.pixels.len()).max(1) as f64
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fnv1a_matches_published_test_vectors() {
+        assert_eq!(fnv1a64(b""), 0xcbf2_9ce4_8422_2325);
+        assert_eq!(fnv1a64(b"a"), 0xaf63_dc4c_8601_ec8c);
+        assert_eq!(fnv1a64(b"foobar"), 0x8594_4171_f739_67e8);
+    }
+}

@@ -11,6 +11,12 @@ fn mix64(mut z: u64) -> u64 {
     z ^ (z >> 31)
 }
 
+/// The seed of sub-render `index` (a pass, a repeat) of a run with base seed `seed`: distinct
+/// for distinct indices, so the sub-renders draw independent streams.
+pub fn derive_seed(seed: u64, index: u64) -> u64 {
+    mix64(seed ^ mix64(index.wrapping_add(0x243f_6a88_85a3_08d3)))
+}
+
 /// The random stream of one pixel.
 pub struct PixelRng(Pcg32);
 

@@ -1,0 +1,154 @@
+//! Progressive rendering: passes with seeds derived from a base seed, merged into one film
+//! (Chan's parallel merge), until a sample count or a time budget is spent. The pass loop
+//! takes its clock as a closure so tests can drive it with a fake one.
+
+use std::time::Instant;
+
+use crate::film::Film;
+use crate::integrator::{render, Estimator, RenderOptions, RenderStats};
+use crate::sampling::rng::derive_seed;
+use crate::scene::Camera;
+
+/// When to stop rendering passes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Budget {
+    /// Exactly this many samples per pixel in total.
+    Spp(u32),
+    /// Passes until this many seconds have elapsed (at least one pass).
+    Seconds(f64),
+}
+
+/// What the pass loop did.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PassCount {
+    pub passes: u32,
+    pub spp: u32,
+}
+
+/// Runs `pass(index, spp)` with passes of `pass_spp` samples (the last one of an spp budget
+/// shorter) until the budget is spent. With a time budget, a pass starts only while
+/// `elapsed()` is below the budget, so the time spent exceeds it by less than one pass.
+pub fn run_passes(
+    budget: Budget,
+    pass_spp: u32,
+    mut elapsed: impl FnMut() -> f64,
+    mut pass: impl FnMut(u32, u32),
+) -> PassCount {
+    let pass_spp = pass_spp.max(1);
+    let mut done = PassCount { passes: 0, spp: 0 };
+    loop {
+        let spp = match budget {
+            Budget::Spp(total) if done.spp >= total => break,
+            Budget::Spp(total) => pass_spp.min(total - done.spp),
+            Budget::Seconds(s) if done.passes > 0 && elapsed() >= s => break,
+            Budget::Seconds(_) => pass_spp,
+        };
+        pass(done.passes, spp);
+        done.passes += 1;
+        done.spp += spp;
+    }
+    done
+}
+
+/// A progressive render's merged result.
+pub struct Progressive {
+    pub film: Film,
+    pub stats: RenderStats,
+    pub count: PassCount,
+    /// Wall-clock seconds of all passes.
+    pub seconds: f64,
+}
+
+/// Renders passes of `pass_spp` with seeds `derive_seed(opts.seed, pass)` and merges them;
+/// `on_pass(count_so_far, elapsed_seconds)` is called after each pass (for progress display).
+/// The merged film is statistically one render of the total spp.
+pub fn render_progressive(
+    estimator: &Estimator,
+    camera: &Camera,
+    opts: &RenderOptions,
+    budget: Budget,
+    pass_spp: u32,
+    mut on_pass: impl FnMut(PassCount, f64),
+) -> Progressive {
+    let start = Instant::now();
+    let mut merged: Option<(Film, RenderStats)> = None;
+    let mut so_far = PassCount { passes: 0, spp: 0 };
+    let count = run_passes(
+        budget,
+        pass_spp,
+        || start.elapsed().as_secs_f64(),
+        |index, spp| {
+            let pass_opts = RenderOptions {
+                spp,
+                seed: derive_seed(opts.seed, index as u64),
+                ..*opts
+            };
+            let (film, stats) = render(estimator, camera, &pass_opts);
+            match &mut merged {
+                None => merged = Some((film, stats)),
+                Some((m, s)) => {
+                    m.merge(&film);
+                    s.add(&stats);
+                }
+            }
+            so_far.passes += 1;
+            so_far.spp += spp;
+            on_pass(so_far, start.elapsed().as_secs_f64());
+        },
+    );
+    let (film, stats) = merged.expect("run_passes runs at least one pass");
+    Progressive {
+        film,
+        stats,
+        count,
+        seconds: start.elapsed().as_secs_f64(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::cell::Cell;
+
+    /// Drives the loop with a fake clock where every pass costs `cost` seconds.
+    fn fake_run(budget: Budget, pass_spp: u32, cost: f64) -> (PassCount, f64) {
+        let clock = Cell::new(0.0);
+        let count = run_passes(
+            budget,
+            pass_spp,
+            || clock.get(),
+            |_, _| clock.set(clock.get() + cost),
+        );
+        (count, clock.get())
+    }
+
+    #[test]
+    fn time_budget_is_spent_within_one_pass() {
+        // 0.25 s passes: a 2 s budget takes exactly 8, a 2.1 s budget needs a 9th.
+        let (c, spent) = fake_run(Budget::Seconds(2.0), 1, 0.25);
+        assert_eq!((c.passes, c.spp), (8, 8));
+        assert_eq!(spent, 2.0);
+        let (c, spent) = fake_run(Budget::Seconds(2.1), 4, 0.25);
+        assert_eq!((c.passes, c.spp), (9, 36));
+        assert!(spent >= 2.1 && spent < 2.1 + 0.25);
+        // A pass longer than the whole budget still renders once.
+        let (c, _) = fake_run(Budget::Seconds(0.1), 1, 5.0);
+        assert_eq!(c.passes, 1);
+        // Over many budgets and costs: never short, never more than one pass over.
+        for budget in [0.5, 1.0, 3.3, 10.0] {
+            for cost in [0.01, 0.07, 0.3, 1.1] {
+                let (c, spent) = fake_run(Budget::Seconds(budget), 1, cost);
+                assert!(spent >= budget && spent < budget + cost, "{budget} {cost}");
+                assert_eq!(c.passes as f64, (spent / cost).round());
+            }
+        }
+    }
+
+    #[test]
+    fn spp_budget_renders_exactly_the_requested_samples() {
+        let mut sizes = Vec::new();
+        let c = run_passes(Budget::Spp(37), 16, || 0.0, |i, spp| sizes.push((i, spp)));
+        assert_eq!(sizes, vec![(0, 16), (1, 16), (2, 5)]);
+        assert_eq!((c.passes, c.spp), (3, 37));
+    }
+}

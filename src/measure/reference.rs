@@ -1,0 +1,248 @@
+//! References: high-spp renders with the lowest-variance estimator, rendered progressively,
+//! written as EXR (mean + variance of the mean) with a JSON sidecar `<file>.json` recording the
+//! scene's content hash, the options, spp, seconds and the reference's own estimated relMSE,
+//!     relMSE_ref ≈ mean over pixels and channels of Var[ref] / (ref² + 1e-2),
+//! and found again in a cache folder next to the scene when hash and options match.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use serde::{Deserialize, Serialize};
+
+use super::metrics::REL_MSE_EPSILON;
+use super::progressive::{render_progressive, Budget, PassCount};
+use super::{fnv1a64, mean_image, EstimatorChoice, SceneSetup};
+use crate::image::{read_exr_rgb, write_atomically, write_exr, RgbImage};
+use crate::integrator::{PreparedScene, RenderOptions, Strategy};
+use crate::select::SelectorKind;
+
+/// The estimator references use by default: MIS of solid-angle light sampling and BSDF
+/// sampling over the light BVH, the lowest-variance combination the renderer has.
+pub const DEFAULT_ESTIMATOR: EstimatorChoice = EstimatorChoice {
+    selector: SelectorKind::Bvh,
+    strategy: Strategy::Mis,
+    k: 1,
+    n: 1,
+};
+
+/// Samples per pixel of each progressive pass of a reference.
+pub const PASS_SPP: u32 = 8;
+
+/// Everything a reference's pixels depend on besides the scene bytes; the cache key.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ReferenceOptions {
+    pub width: u32,
+    pub height: u32,
+    pub camera: Option<String>,
+    pub estimator: EstimatorChoice,
+    pub seed: u64,
+    /// Requested total spp (None for a time budget).
+    pub spp: Option<u32>,
+    /// Requested seconds (None for an spp budget).
+    pub time: Option<f64>,
+}
+
+impl ReferenceOptions {
+    pub fn budget(&self) -> Budget {
+        match (self.spp, self.time) {
+            (Some(spp), _) => Budget::Spp(spp),
+            (None, Some(t)) => Budget::Seconds(t),
+            (None, None) => Budget::Spp(1),
+        }
+    }
+}
+
+/// The JSON sidecar of a reference.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct ReferenceMeta {
+    pub scene: PathBuf,
+    /// FNV-1a of the scene file's bytes, 16 hex digits.
+    pub scene_hash: String,
+    pub options: ReferenceOptions,
+    /// Samples per pixel rendered.
+    pub spp: u32,
+    pub passes: u32,
+    pub seconds: f64,
+    /// Mean over pixels and channels of the variance of the mean / (ref² + 1e-2).
+    pub relmse_estimate: f64,
+    pub nan_samples: u64,
+    pub inf_samples: u64,
+}
+
+/// A reference image with its variance layer (when the file has one) and sidecar (when found).
+pub struct Reference {
+    pub path: PathBuf,
+    pub mean: RgbImage,
+    pub variance: Option<RgbImage>,
+    pub meta: Option<ReferenceMeta>,
+}
+
+impl Reference {
+    /// The reference's own estimated relMSE; None without a variance layer.
+    pub fn relmse_estimate(&self) -> Option<f64> {
+        self.variance
+            .as_ref()
+            .map(|v| estimated_relmse(&self.mean, v))
+    }
+}
+
+/// relMSE a reference with per-pixel variance of the mean `variance` has against the truth:
+/// mean over pixels and channels of variance / (mean² + 1e-2).
+pub fn estimated_relmse(mean: &RgbImage, variance: &RgbImage) -> f64 {
+    let sum: f64 = mean
+        .pixels
+        .iter()
+        .zip(&variance.pixels)
+        .map(|(m, v)| {
+            (0..3)
+                .map(|c| v[c] as f64 / ((m[c] as f64).powi(2) + REL_MSE_EPSILON))
+                .sum::<f64>()
+        })
+        .sum();
+    sum / (3 * mean.pixels.len()).max(1) as f64
+}
+
+/// The sidecar path of a reference EXR: the same name with `.json` appended.
+pub fn sidecar_path(exr: &Path) -> PathBuf {
+    let mut s = exr.as_os_str().to_owned();
+    s.push(".json");
+    PathBuf::from(s)
+}
+
+/// Renders a reference of `setup` progressively; `on_pass` sees each pass (progress display).
+pub fn render_reference(
+    setup: &SceneSetup,
+    options: &ReferenceOptions,
+    path: &Path,
+    on_pass: impl FnMut(PassCount, f64),
+) -> Reference {
+    let e = options.estimator;
+    let prepared = PreparedScene::new(setup.scene.clone(), e.selector);
+    let estimator = prepared.estimator(e.strategy, e.k, e.n);
+    let opts = RenderOptions {
+        width: setup.width,
+        height: setup.height,
+        spp: PASS_SPP,
+        seed: options.seed,
+        clamp: None,
+    };
+    let p = render_progressive(
+        &estimator,
+        &setup.camera,
+        &opts,
+        options.budget(),
+        PASS_SPP,
+        on_pass,
+    );
+    let mean = mean_image(&p.film);
+    let variance = RgbImage {
+        width: mean.width,
+        height: mean.height,
+        pixels: p.film.variance_of_mean_rgb(),
+    };
+    let meta = ReferenceMeta {
+        scene: setup.path.clone(),
+        scene_hash: format!("{:016x}", setup.hash),
+        options: options.clone(),
+        spp: p.count.spp,
+        passes: p.count.passes,
+        seconds: p.seconds,
+        relmse_estimate: estimated_relmse(&mean, &variance),
+        nan_samples: p.stats.nan_samples,
+        inf_samples: p.stats.inf_samples,
+    };
+    Reference {
+        path: path.into(),
+        mean,
+        variance: Some(variance),
+        meta: Some(meta),
+    }
+}
+
+/// Writes the EXR (mean and variance layer) and then its sidecar, each atomically.
+pub fn write_reference(reference: &Reference) -> anyhow::Result<()> {
+    write_exr(
+        &reference.path,
+        &reference.mean,
+        reference.variance.as_ref(),
+    )?;
+    if let Some(meta) = &reference.meta {
+        write_atomically(&sidecar_path(&reference.path), |w| {
+            serde_json::to_writer_pretty(&mut *w, meta)?;
+            writeln!(w)?;
+            Ok(())
+        })?;
+    }
+    Ok(())
+}
+
+/// Reads a reference EXR and, when present, its sidecar.
+pub fn read_reference(path: &Path) -> anyhow::Result<Reference> {
+    let (mean, variance) = read_exr_rgb(path)?;
+    let sidecar = sidecar_path(path);
+    let meta = if sidecar.exists() {
+        let text = std::fs::read_to_string(&sidecar)
+            .with_context(|| format!("cannot read {}", sidecar.display()))?;
+        Some(
+            serde_json::from_str(&text)
+                .with_context(|| format!("{}: not a reference sidecar", sidecar.display()))?,
+        )
+    } else {
+        None
+    };
+    Ok(Reference {
+        path: path.into(),
+        mean,
+        variance,
+        meta,
+    })
+}
+
+/// Where the cached reference for (scene, options) lives: `<scene>.ref/<key>.exr`, the key an
+/// FNV-1a of the scene hash and the options' JSON.
+pub fn cache_path(setup: &SceneSetup, options: &ReferenceOptions) -> PathBuf {
+    let mut folder = setup.path.as_os_str().to_owned();
+    folder.push(".ref");
+    let key = format!(
+        "{:016x}{}",
+        setup.hash,
+        serde_json::to_string(options).expect("options serialise")
+    );
+    PathBuf::from(folder).join(format!("{:016x}.exr", fnv1a64(key.as_bytes())))
+}
+
+/// Whether a reference was found in the cache or rendered.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Obtained {
+    Cached,
+    Rendered,
+}
+
+/// The cached reference for (scene, options) when its sidecar's hash and options match, else a
+/// newly rendered one, written to the cache (the folder is created).
+pub fn cached_or_render(
+    setup: &SceneSetup,
+    options: &ReferenceOptions,
+    on_pass: impl FnMut(PassCount, f64),
+) -> anyhow::Result<(Reference, Obtained)> {
+    let path = cache_path(setup, options);
+    if path.exists() {
+        if let Ok(r) = read_reference(&path) {
+            let hash = format!("{:016x}", setup.hash);
+            let matches = r
+                .meta
+                .as_ref()
+                .is_some_and(|m| m.scene_hash == hash && m.options == *options);
+            if matches && r.mean.width == setup.width as usize {
+                return Ok((r, Obtained::Cached));
+            }
+        }
+    }
+    let folder = path.parent().expect("cache path has a folder");
+    std::fs::create_dir_all(folder)
+        .with_context(|| format!("cannot create the cache folder {}", folder.display()))?;
+    let reference = render_reference(setup, options, &path, on_pass);
+    write_reference(&reference)?;
+    Ok((reference, Obtained::Rendered))
+}
