@@ -3,6 +3,7 @@
 //! Exit codes: 0 success; 1 a run-time failure (e.g. an output file cannot be written);
 //! 2 bad command-line usage (from clap); 3 an input scene that cannot be read or is invalid.
 
+pub mod bench;
 pub mod diff;
 pub mod gen;
 pub mod info;
@@ -33,6 +34,8 @@ pub enum Command {
     Render(render::RenderArgs),
     /// Render a high-spp reference (with variance layer and JSON sidecar) progressively.
     Reference(reference::ReferenceArgs),
+    /// Render configurations repeatedly and report error, variance, time and efficiency.
+    Bench(bench::BenchArgs),
     /// Print a scene's triangle and light counts, emitted power, bounds and camera.
     Info(info::InfoArgs),
     /// Write one of the built-in scenes as glTF 2.0 (.glb or .gltf).
@@ -46,6 +49,7 @@ pub fn run(cli: Cli) -> i32 {
     let result = match cli.command {
         Command::Render(args) => render::run(&args),
         Command::Reference(args) => reference::run(&args),
+        Command::Bench(args) => bench::run_bench(&args),
         Command::Info(args) => info::run(&args),
         Command::Gen(args) => gen::run(&args),
         Command::Diff(args) => diff::run(&args),

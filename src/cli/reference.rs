@@ -1,9 +1,10 @@
 //! `manylights reference SCENE -o REF.exr [--spp N | --time SECONDS]`: a progressive high-spp
 //! reference with its variance layer and JSON sidecar.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Duration;
 
+use anyhow::bail;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -12,9 +13,11 @@ use super::render::check_output_path;
 use super::UsageError;
 use crate::measure::progressive::PassCount;
 use crate::measure::reference::{
-    render_reference, sidecar_path, write_reference, ReferenceOptions, DEFAULT_ESTIMATOR,
+    cache_path, cached_or_render, read_reference, render_reference, sidecar_path, write_reference,
+    Obtained, Reference, ReferenceOptions, DEFAULT_ESTIMATOR,
 };
 use crate::measure::SceneSetup;
+use crate::sampling::rng::derive_seed;
 
 /// A reference's defaults: 1024 spp with MIS over the light BVH.
 pub const REFERENCE_DEFAULTS: Defaults = Defaults {
@@ -138,4 +141,78 @@ fn positive_seconds(s: &str) -> Result<f64, String> {
     } else {
         Err(format!("must be a positive number of seconds, got {s}"))
     }
+}
+
+/// The reference a measuring command compares against: the file given, or the cached one for
+/// this scene and size (rendered with bvh + mis at `spp` when missing). Says which on stderr.
+pub fn obtain_reference(
+    setup: &SceneSetup,
+    given: Option<&Path>,
+    spp: u32,
+    seed: u64,
+) -> anyhow::Result<Reference> {
+    if let Some(path) = given {
+        let r = read_reference(path)?;
+        if (r.mean.width, r.mean.height) != (setup.width as usize, setup.height as usize) {
+            bail!(
+                "reference {} is {}x{} but the renders are {}x{} (set --width/--height)",
+                path.display(),
+                r.mean.width,
+                r.mean.height,
+                setup.width,
+                setup.height
+            );
+        }
+        if let Some(m) = &r.meta {
+            if m.scene_hash != format!("{:016x}", setup.hash) {
+                eprintln!(
+                    "warning: reference {} was rendered from a different scene file (hash {}, \
+                     this one {:016x})",
+                    path.display(),
+                    m.scene_hash,
+                    setup.hash
+                );
+            }
+        }
+        eprintln!("reference {} (given)", path.display());
+        return Ok(r);
+    }
+    let options = ReferenceOptions {
+        width: setup.width,
+        height: setup.height,
+        camera: setup.camera_choice.clone(),
+        estimator: DEFAULT_ESTIMATOR,
+        seed: derive_seed(seed, u64::MAX),
+        spp: Some(spp),
+        time: None,
+    };
+    let path = cache_path(setup, &options);
+    if !path.exists() {
+        eprintln!(
+            "reference not given: rendering one ({} spp, bvh + mis) into {}",
+            spp,
+            path.display()
+        );
+    }
+    let bar = progress_bar(&options);
+    let (r, obtained) = cached_or_render(setup, &options, |count, secs| {
+        update(&bar, &options, count, secs)
+    })?;
+    bar.finish_and_clear();
+    let rel = r.relmse_estimate().unwrap_or(f64::NAN);
+    match obtained {
+        Obtained::Cached => eprintln!(
+            "reference not given: reusing the cached reference {} ({} spp, own relMSE {:.3e})",
+            path.display(),
+            spp,
+            rel
+        ),
+        Obtained::Rendered => eprintln!(
+            "reference rendered and cached: {} ({} spp, own relMSE {:.3e})",
+            path.display(),
+            spp,
+            rel
+        ),
+    }
+    Ok(r)
 }

@@ -1,9 +1,12 @@
 //! Measuring renders: error against a reference, references themselves, progressive rendering
 //! to a budget, benchmark grids, convergence checks, and their reports and plots.
 
+pub mod bench;
+pub mod fit;
 pub mod metrics;
 pub mod progressive;
 pub mod reference;
+pub mod report;
 
 use std::path::{Path, PathBuf};
 

@@ -130,7 +130,7 @@ mod tests {
         assert_eq!(spent, 2.0);
         let (c, spent) = fake_run(Budget::Seconds(2.1), 4, 0.25);
         assert_eq!((c.passes, c.spp), (9, 36));
-        assert!(spent >= 2.1 && spent < 2.1 + 0.25);
+        assert!((2.1..2.1 + 0.25).contains(&spent));
         // A pass longer than the whole budget still renders once.
         let (c, _) = fake_run(Budget::Seconds(0.1), 1, 5.0);
         assert_eq!(c.passes, 1);

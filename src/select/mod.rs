@@ -7,6 +7,8 @@
 //! `oracle`: p_l ∝ each light's exact unshadowed contribution to a diffuse receiver (O(L)).
 
 mod bvh;
+// `!(x > 0.0)` is the BVH's deliberate NaN-rejecting test.
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
 pub mod light_bvh;
 pub mod oracle;
 

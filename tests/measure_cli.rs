@@ -1,0 +1,152 @@
+//! Whole-program behaviour of the measuring commands (reference, bench, converge) on the small
+//! Cornell box: their files parse with the documented fields, references are cached and reused,
+//! and converge fails on a deliberately biased configuration.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn manylights(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_manylights"))
+        .args(args)
+        .output()
+        .expect("binary runs")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// A copy of scenes/cornell.glb in a fresh folder, so its reference cache lands there.
+fn cornell_copy(dir: &Path) -> PathBuf {
+    let scene = dir.join("cornell.glb");
+    std::fs::copy(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.glb"),
+        &scene,
+    )
+    .unwrap();
+    scene
+}
+
+fn json(path: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+#[test]
+fn reference_writes_exr_and_sidecar_and_refuses_clamp() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = cornell_copy(dir.path());
+    let out = dir.path().join("ref.exr");
+    let (s, o) = (scene.to_str().unwrap(), out.to_str().unwrap());
+    let run = manylights(&["reference", s, "-o", o, "--width", "16", "--spp", "20"]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    let meta = json(&dir.path().join("ref.exr.json"));
+    assert_eq!(meta["spp"], 20);
+    assert_eq!(meta["passes"], 3, "passes of 8, 8 and 4 spp");
+    assert_eq!(meta["options"]["estimator"]["selector"], "bvh");
+    assert_eq!(meta["options"]["estimator"]["strategy"], "mis");
+    assert_eq!(meta["scene_hash"].as_str().unwrap().len(), 16);
+    assert!(meta["seconds"].as_f64().unwrap() >= 0.0);
+    let rel = meta["relmse_estimate"].as_f64().unwrap();
+    assert!(rel.is_finite() && rel > 0.0);
+
+    let refused = manylights(&["reference", s, "-o", o, "--clamp", "1"]);
+    assert_eq!(refused.status.code(), Some(2), "{}", stderr(&refused));
+    assert!(stderr(&refused).contains("unbiased"));
+}
+
+#[test]
+fn bench_reports_every_configuration_and_reuses_its_cached_reference() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = cornell_copy(dir.path());
+    let files = ["b.json", "b.csv", "b.md"].map(|f| dir.path().join(f));
+    let [j, c, m] = files.each_ref().map(|p| p.to_str().unwrap());
+    let args = [
+        "bench",
+        scene.to_str().unwrap(),
+        "--width",
+        "16",
+        "--selectors",
+        "uniform,power",
+        "--strategies",
+        "light-area,mis",
+        "--kn",
+        "1x1,4x1",
+        "--spp",
+        "2,4",
+        "--repeat",
+        "2",
+        "--reference-spp",
+        "64",
+        "--json",
+        j,
+        "--csv",
+        c,
+        "--markdown",
+        m,
+    ];
+    let first = manylights(&args);
+    assert!(first.status.success(), "{}", stderr(&first));
+    assert!(
+        stderr(&first).contains("rendering one"),
+        "{}",
+        stderr(&first)
+    );
+
+    let rows = json(&files[0]);
+    let rows = rows.as_array().unwrap();
+    assert_eq!(rows.len(), 2 * 2 * 2 * 2);
+    for row in rows {
+        for field in ["selector", "strategy", "k", "n", "spp", "biased"] {
+            assert!(!row[field].is_null(), "{field} missing in {row}");
+        }
+        for field in ["seconds", "rays", "mse", "relmse", "variance", "efficiency"] {
+            let v = row[field].as_f64().unwrap_or(f64::NAN);
+            assert!(v.is_finite() && v >= 0.0, "{field} = {v} in {row}");
+        }
+        assert_eq!(row["biased"], false);
+        let [lo, hi] = [0, 1].map(|i| row["mse_interval"][i].as_f64().unwrap());
+        assert!(lo <= row["mse"].as_f64().unwrap() && row["mse"].as_f64().unwrap() <= hi);
+    }
+    assert!(rows
+        .iter()
+        .any(|r| r["selector"] == "uniform" && r["k"] == 4 && r["spp"] == 4));
+    let csv = std::fs::read_to_string(&files[1]).unwrap();
+    assert_eq!(csv.lines().count(), 1 + rows.len());
+    let md = std::fs::read_to_string(&files[2]).unwrap();
+    assert_eq!(md.lines().count(), 2 + rows.len());
+    let table = String::from_utf8_lossy(&first.stdout);
+    assert!(table.contains("power:mis:4x1"), "{table}");
+
+    let second = manylights(&args);
+    assert!(second.status.success(), "{}", stderr(&second));
+    assert!(
+        stderr(&second).contains("reusing the cached reference"),
+        "{}",
+        stderr(&second)
+    );
+}
+
+#[test]
+fn clamped_bench_rows_are_marked_biased() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = cornell_copy(dir.path());
+    let j = dir.path().join("b.json");
+    let o = manylights(&[
+        "bench",
+        scene.to_str().unwrap(),
+        "--width",
+        "8",
+        "--spp",
+        "2",
+        "--repeat",
+        "1",
+        "--reference-spp",
+        "16",
+        "--clamp",
+        "0.5",
+        "--json",
+        j.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(json(&j)[0]["biased"], true);
+}
