@@ -150,3 +150,49 @@ fn clamped_bench_rows_are_marked_biased() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(json(&j)[0]["biased"], true);
 }
+
+#[test]
+fn converge_exits_0_when_unbiased_and_4_when_clamped() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = cornell_copy(dir.path());
+    let j = dir.path().join("c.json");
+    let converge = |extra: &[&str]| {
+        let mut args = vec![
+            "converge",
+            scene.to_str().unwrap(),
+            "--width",
+            "32",
+            "--seeds",
+            "16",
+            "--json",
+            j.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        manylights(&args)
+    };
+    let good = converge(&[]);
+    assert_eq!(
+        good.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&good.stdout)
+    );
+    let report = json(&j);
+    let slope = report["slope"].as_f64().unwrap();
+    assert!((slope + 1.0).abs() <= 0.15, "{slope}");
+    assert!(report["slope_interval"][0].as_f64().unwrap() < slope);
+    assert_eq!(report["passed"], true);
+
+    let bad = converge(&["--clamp", "0.5"]);
+    assert_eq!(
+        bad.status.code(),
+        Some(4),
+        "{}",
+        String::from_utf8_lossy(&bad.stdout)
+    );
+    assert!(stderr(&bad).contains("reusing the cached reference"));
+    assert!(String::from_utf8_lossy(&bad.stdout).contains("unbiased  FAIL"));
+    let report = json(&j);
+    assert_eq!(report["passed"], false);
+    assert_eq!(report["biased"], true);
+}

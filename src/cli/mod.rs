@@ -1,9 +1,11 @@
 //! The `manylights` command line: one file per subcommand.
 //!
 //! Exit codes: 0 success; 1 a run-time failure (e.g. an output file cannot be written);
-//! 2 bad command-line usage (from clap); 3 an input scene that cannot be read or is invalid.
+//! 2 bad command-line usage (from clap); 3 an input scene that cannot be read or is invalid;
+//! 4 a `converge` check failed.
 
 pub mod bench;
+pub mod converge;
 pub mod diff;
 pub mod gen;
 pub mod info;
@@ -16,6 +18,7 @@ use clap::{Parser, Subcommand};
 pub const EXIT_FAILURE: i32 = 1;
 pub const EXIT_USAGE: i32 = 2;
 pub const EXIT_BAD_INPUT: i32 = 3;
+pub const EXIT_CHECK_FAILED: i32 = 4;
 
 #[derive(Parser, Debug)]
 #[command(
@@ -36,6 +39,9 @@ pub enum Command {
     Reference(reference::ReferenceArgs),
     /// Render configurations repeatedly and report error, variance, time and efficiency.
     Bench(bench::BenchArgs),
+    /// Check convergence: the MSE's log-log slope, unbiasedness and finite samples (exit 4 on
+    /// failure).
+    Converge(converge::ConvergeArgs),
     /// Print a scene's triangle and light counts, emitted power, bounds and camera.
     Info(info::InfoArgs),
     /// Write one of the built-in scenes as glTF 2.0 (.glb or .gltf).
@@ -50,6 +56,11 @@ pub fn run(cli: Cli) -> i32 {
         Command::Render(args) => render::run(&args),
         Command::Reference(args) => reference::run(&args),
         Command::Bench(args) => bench::run_bench(&args),
+        Command::Converge(args) => match converge::run_converge(&args) {
+            Ok(true) => Ok(()),
+            Ok(false) => return EXIT_CHECK_FAILED,
+            Err(e) => Err(e),
+        },
         Command::Info(args) => info::run(&args),
         Command::Gen(args) => gen::run(&args),
         Command::Diff(args) => diff::run(&args),
