@@ -60,6 +60,8 @@ fn bench_reports_every_configuration_and_reuses_its_cached_reference() {
     let scene = cornell_copy(dir.path());
     let files = ["b.json", "b.csv", "b.md"].map(|f| dir.path().join(f));
     let [j, c, m] = files.each_ref().map(|p| p.to_str().unwrap());
+    let (svg, errors) = (dir.path().join("p.svg"), dir.path().join("errors"));
+    std::fs::create_dir(&errors).unwrap();
     let args = [
         "bench",
         scene.to_str().unwrap(),
@@ -83,6 +85,10 @@ fn bench_reports_every_configuration_and_reuses_its_cached_reference() {
         c,
         "--markdown",
         m,
+        "--plot",
+        svg.to_str().unwrap(),
+        "--error-images",
+        errors.to_str().unwrap(),
     ];
     let first = manylights(&args);
     assert!(first.status.success(), "{}", stderr(&first));
@@ -116,6 +122,19 @@ fn bench_reports_every_configuration_and_reuses_its_cached_reference() {
     assert_eq!(md.lines().count(), 2 + rows.len());
     let table = String::from_utf8_lossy(&first.stdout);
     assert!(table.contains("power:mis:4x1"), "{table}");
+
+    let plot = std::fs::read_to_string(&svg).unwrap();
+    for text in [
+        "<svg",
+        "relMSE",
+        "render time (seconds)",
+        "uniform:mis:4x1",
+        "power:light-area:1x1",
+    ] {
+        assert!(plot.contains(text), "plot lacks {text}");
+    }
+    assert_eq!(std::fs::read_dir(&errors).unwrap().count(), rows.len());
+    assert!(errors.join("power_mis_4x1_4.png").exists());
 
     let second = manylights(&args);
     assert!(second.status.success(), "{}", stderr(&second));

@@ -3,6 +3,7 @@
 
 use std::path::PathBuf;
 
+use anyhow::bail;
 use clap::Args;
 
 use super::options::{RenderOptionsArgs, RENDER_DEFAULTS};
@@ -10,6 +11,7 @@ use super::reference::obtain_reference;
 use super::render::check_output_path;
 use super::UsageError;
 use crate::measure::bench::{apply_baseline, run, target_answers, BenchPlan};
+use crate::measure::plot::{plot_relmse_vs_seconds, write_error_image};
 use crate::measure::report::{csv, markdown, table, write_json, write_text};
 use crate::measure::{EstimatorChoice, SceneSetup};
 
@@ -41,6 +43,13 @@ pub struct BenchArgs {
     /// Print the seconds each configuration needs to reach this relMSE, and the cheapest.
     #[arg(long)]
     pub target_relmse: Option<f64>,
+    /// Draw relMSE against seconds (log-log, one line per configuration) as SVG.
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+    /// Write a false-colour PNG of each configuration's per-pixel relative error here
+    /// (the last repeat; log scale from 1e-4, dark, to 10, pale yellow).
+    #[arg(long)]
+    pub error_images: Option<PathBuf>,
     #[arg(long)]
     pub json: Option<PathBuf>,
     #[arg(long)]
@@ -117,10 +126,16 @@ pub fn estimators(args: &BenchArgs) -> Result<Vec<EstimatorChoice>, UsageError> 
 }
 
 pub fn run_bench(args: &BenchArgs) -> anyhow::Result<()> {
+    if let Some(dir) = &args.error_images {
+        if !dir.is_dir() {
+            bail!("--error-images {}: not an existing folder", dir.display());
+        }
+    }
     for (path, ext) in [
         (&args.json, "json"),
         (&args.csv, "csv"),
         (&args.markdown, "md"),
+        (&args.plot, "svg"),
     ] {
         if let Some(p) = path {
             check_output_path(p, ext)?;
@@ -226,6 +241,20 @@ pub fn run_bench(args: &BenchArgs) -> anyhow::Result<()> {
     }
     if let Some(p) = &args.markdown {
         write_text(p, &markdown(&rows))?;
+    }
+    if let Some(p) = &args.plot {
+        let name = setup.path.file_name().unwrap_or_default().to_string_lossy();
+        let title = format!(
+            "{name} {}x{}: relMSE against time",
+            setup.width, setup.height
+        );
+        plot_relmse_vs_seconds(p, &rows, &title)?;
+    }
+    if let Some(dir) = &args.error_images {
+        for row in &rows {
+            let file = dir.join(format!("{}.png", row.label().replace(':', "_")));
+            write_error_image(&file, &row.image, &reference.mean)?;
+        }
     }
     Ok(())
 }

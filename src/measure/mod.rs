@@ -5,6 +5,7 @@ pub mod bench;
 pub mod converge;
 pub mod fit;
 pub mod metrics;
+pub mod plot;
 pub mod progressive;
 pub mod reference;
 pub mod report;
