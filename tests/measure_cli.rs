@@ -215,3 +215,22 @@ fn converge_exits_0_when_unbiased_and_4_when_clamped() {
     assert_eq!(report["passed"], false);
     assert_eq!(report["biased"], true);
 }
+
+#[test]
+fn bench_refuses_an_unknown_baseline_before_rendering() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = cornell_copy(dir.path());
+    let o = manylights(&[
+        "bench",
+        scene.to_str().unwrap(),
+        "--baseline",
+        "power:mis:2x2",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("power:light-area:1x1"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!dir.path().join("cornell.glb.ref").exists());
+}

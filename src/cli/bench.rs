@@ -10,7 +10,7 @@ use super::options::{RenderOptionsArgs, RENDER_DEFAULTS};
 use super::reference::obtain_reference;
 use super::render::check_output_path;
 use super::UsageError;
-use crate::measure::bench::{apply_baseline, run, target_answers, BenchPlan};
+use crate::measure::bench::{apply_baseline, estimator_label, run, target_answers, BenchPlan};
 use crate::measure::plot::{plot_relmse_vs_seconds, write_error_image};
 use crate::measure::report::{csv, markdown, table, write_json, write_text};
 use crate::measure::{EstimatorChoice, SceneSetup};
@@ -156,6 +156,18 @@ pub fn run_bench(args: &BenchArgs) -> anyhow::Result<()> {
         clamp: o.clamp,
         time_budget: args.time_budget,
     };
+    if let Some(b) = &args.baseline {
+        let config: Vec<&str> = b.splitn(4, ':').take(3).collect();
+        let config = config.join(":");
+        if !plan.estimators.iter().any(|e| estimator_label(e) == config) {
+            let known: Vec<String> = plan.estimators.iter().map(estimator_label).collect();
+            return Err(UsageError(format!(
+                "--baseline {b} is not among the configurations: {}",
+                known.join(", ")
+            ))
+            .into());
+        }
+    }
     let setup = SceneSetup::load(&o.scene, o.camera.as_ref(), o.width, o.height)?;
     let pool = o.thread_pool()?;
     let reference = pool.install(|| {
