@@ -170,14 +170,8 @@ pub fn run_bench(args: &BenchArgs) -> anyhow::Result<()> {
     }
     let setup = SceneSetup::load(&o.scene, o.camera.as_ref(), o.width, o.height)?;
     let pool = o.thread_pool()?;
-    let reference = pool.install(|| {
-        obtain_reference(
-            &setup,
-            args.reference.as_deref(),
-            args.reference_spp,
-            o.seed,
-        )
-    })?;
+    let reference =
+        pool.install(|| obtain_reference(&setup, args.reference.as_deref(), args.reference_spp))?;
     let total = plan.estimators.len()
         * if plan.time_budget.is_some() {
             1

@@ -69,8 +69,8 @@ pub fn run_converge(args: &ConvergeArgs) -> anyhow::Result<bool> {
     let reference_spp = args
         .reference_spp
         .unwrap_or_else(|| max_spp.saturating_mul(64));
-    let reference = pool
-        .install(|| obtain_reference(&setup, args.reference.as_deref(), reference_spp, o.seed))?;
+    let reference =
+        pool.install(|| obtain_reference(&setup, args.reference.as_deref(), reference_spp))?;
     let report = pool.install(|| run(&setup, &reference, &opts));
     print_report(&report);
     if let Some(p) = &args.json {
