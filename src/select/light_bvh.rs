@@ -43,6 +43,8 @@ const ANGLE_SLACK: f64 = 1e-6;
 const BUCKETS: usize = 12;
 /// Subtrees with at least this many lights are built in parallel.
 const PARALLEL_MIN: usize = 4096;
+/// Nodes with at least this many lights are binned in parallel.
+const PARALLEL_BINNING_MIN: usize = 1 << 16;
 /// The largest f64 below 1.
 const LARGEST_BELOW_ONE: f64 = 1.0 - f64::EPSILON / 2.0;
 /// Largest 16-bit box coordinate.
@@ -104,21 +106,24 @@ impl LightBounds {
     /// rounding never rejects a node that can reach p's upper hemisphere. The
     /// result is finite and ≥ 0 (clamped to f32::MAX), and positive results
     /// are at least f32::MIN_POSITIVE.
+    #[inline]
     pub fn importance(&self, p: Vec3, n: Vec3) -> f32 {
-        if !(self.phi > 0.0 && p.is_finite() && n.is_finite()) {
+        let centre = (self.lo + self.hi) * 0.5;
+        let valid = self.phi > 0.0 && centre.is_finite() && p.is_finite() && n.is_finite();
+        if !valid {
             return 0.0;
         }
-        let centre = (self.lo + self.hi) * 0.5;
-        let half_diagonal = (self.hi - self.lo) * 0.5;
+        let half_diagonal_sq = ((self.hi - self.lo) * 0.5).length_squared();
         let to_p = p - centre;
-        let dist_sq = to_p.as_dvec3().length_squared();
-        let sphere = Subtended::new(to_p, dist_sq, bounding_radius(centre, half_diagonal));
+        let dist_sq = to_p.length_squared();
+        let sphere = Subtended::new(to_p, dist_sq, bounding_radius(centre, half_diagonal_sq));
         let emitted = self.emitter_factor(sphere);
+        if emitted == 0.0 {
+            return 0.0;
+        }
         let received = receiver_factor(n, sphere);
-        let d_sq = dist_sq
-            .max(half_diagonal.as_dvec3().length_squared())
-            .max(f64::MIN_POSITIVE);
-        let value = f64::from(self.phi) * f64::from(emitted) * f64::from(received) / d_sq;
+        let inv_d_sq = dist_sq.max(half_diagonal_sq).max(f32::MIN_POSITIVE).recip();
+        let value = f64::from(self.phi) * f64::from(emitted * received) * f64::from(inv_d_sq);
         if value > 0.0 {
             (value.min(f64::from(f32::MAX)) as f32).max(f32::MIN_POSITIVE)
         } else {
@@ -127,6 +132,7 @@ impl LightBounds {
     }
 
     /// cos θp, or 0 when θp ≥ θe (with slack) so no emitter faces p.
+    #[inline]
     fn emitter_factor(&self, sphere: Option<Subtended>) -> f32 {
         let Some(s) = sphere else {
             return 1.0; // p inside the sphere: θb = π, θp = 0
@@ -150,6 +156,7 @@ impl LightBounds {
 
 /// Receiver factor cos(max(0, θi − θb)), or 0 when that angle is ≥ 90° (with
 /// slack): the node's bounding sphere lies wholly behind the tangent plane.
+#[inline]
 fn receiver_factor(n: Vec3, sphere: Option<Subtended>) -> f32 {
     let Some(s) = sphere else { return 1.0 };
     if n == Vec3::ZERO {
@@ -177,25 +184,24 @@ struct Subtended {
 
 impl Subtended {
     /// `None` when p is inside the sphere (θb = π).
-    fn new(to_p: Vec3, dist_sq: f64, radius: f64) -> Option<Subtended> {
-        if !(dist_sq > radius * radius) {
-            return None;
-        }
-        let dist = dist_sq.sqrt();
-        Some(Subtended {
-            dir: (to_p.as_dvec3() / dist).as_vec3(),
-            cos_b: (((dist - radius) * (dist + radius)).sqrt() / dist) as f32,
-            sin_b: (radius / dist) as f32,
+    fn new(to_p: Vec3, dist_sq: f32, radius: f32) -> Option<Subtended> {
+        (dist_sq > radius * radius).then(|| {
+            let dist = dist_sq.sqrt();
+            let inv_dist = dist.recip();
+            Subtended {
+                dir: to_p * inv_dist,
+                cos_b: ((dist - radius) * (dist + radius)).sqrt() * inv_dist,
+                sin_b: radius * inv_dist,
+            }
         })
     }
 }
 
 /// Radius of a sphere about the f32 centre that surely holds the box: the half
 /// diagonal enlarged for the rounding of the centre and of the half diagonal.
-fn bounding_radius(centre: Vec3, half_diagonal: Vec3) -> f64 {
-    let eps = f64::from(f32::EPSILON);
-    half_diagonal.as_dvec3().length() * (1.0 + 4.0 * eps)
-        + 2.0 * eps * f64::from(centre.abs().max_element())
+fn bounding_radius(centre: Vec3, half_diagonal_sq: f32) -> f32 {
+    let eps = f32::EPSILON;
+    half_diagonal_sq.sqrt() * (1.0 + 8.0 * eps) + 4.0 * eps * centre.abs().max_element()
 }
 
 /// (cos, sin) of max(0, α − β) from those of α, β ∈ [0, π].
@@ -277,8 +283,10 @@ fn cone_union(a: (Vec3, f32), b: (Vec3, f32)) -> (Vec3, f32) {
 /// the root box's upper corner.
 #[derive(Clone, Copy, Debug)]
 struct Grid {
-    origin: Vec3,
-    step: Vec3,
+    origin: Vec3A,
+    step: Vec3A,
+    /// 1/step (0 along axes without extent), for first guesses only.
+    inv_step: Vec3A,
 }
 
 impl Grid {
@@ -290,44 +298,42 @@ impl Grid {
             }
             s
         };
+        let step = Vec3A::new(step(0), step(1), step(2));
         Grid {
-            origin: lo,
-            step: Vec3::new(step(0), step(1), step(2)),
+            origin: lo.into(),
+            step,
+            inv_step: Vec3A::select(step.cmpgt(Vec3A::ZERO), step.recip(), Vec3A::ZERO)
+                .min(Vec3A::splat(f32::MAX)),
         }
     }
 
     fn decode(&self, q: [u16; 3]) -> Vec3 {
-        self.origin + Vec3::new(f32::from(q[0]), f32::from(q[1]), f32::from(q[2])) * self.step
+        let q = Vec3A::new(f32::from(q[0]), f32::from(q[1]), f32::from(q[2]));
+        (self.origin + q * self.step).into()
     }
 
-    /// Codes whose decoding is ≤ `x` (`up` false) or ≥ `x` (`up` true), per
-    /// coordinate.
+    /// Codes whose decoding is ≤ `x` (`up` false) or ≥ `x` (`up` true): a
+    /// first guess rounded down (up), then stepped until the decoding
+    /// arithmetic itself confirms the rounding direction.
     fn encode(&self, x: Vec3, up: bool) -> [u16; 3] {
-        let guess = ((x - self.origin) / self.step).clamp(Vec3::ZERO, Vec3::splat(BOX_MAX as f32));
-        [0, 1, 2].map(|k| quantise(x[k], guess[k], self.origin[k], self.step[k], up))
-    }
-}
-
-/// One coordinate of [`Grid::encode`]: the first `guess` rounded down (or
-/// up), then stepped until the exact decoding arithmetic confirms the
-/// rounding direction.
-fn quantise(x: f32, guess: f32, origin: f32, step: f32, up: bool) -> u16 {
-    if !(step > 0.0) {
-        return 0;
-    }
-    let decode = |q: u32| origin + q as f32 * step;
-    let mut q = guess as u32;
-    if up {
-        q += u32::from((q as f32) < guess);
-        while q < BOX_MAX && decode(q) < x {
-            q += 1;
-        }
-    } else {
-        while q > 0 && decode(q) > x {
-            q -= 1;
+        let x = Vec3A::from(x);
+        let top = Vec3A::splat(BOX_MAX as f32);
+        let guess = ((x - self.origin) * self.inv_step).clamp(Vec3A::ZERO, top);
+        let mut q = if up { guess.ceil() } else { guess.floor() };
+        loop {
+            let at = self.origin + q * self.step;
+            let (wrong, next) = if up {
+                (at.cmplt(x) & q.cmplt(top), q + 1.0)
+            } else {
+                (at.cmpgt(x) & q.cmpgt(Vec3A::ZERO), q - 1.0)
+            };
+            if !wrong.any() {
+                let q = q.as_uvec3();
+                return [q.x, q.y, q.z].map(|c| c as u16);
+            }
+            q = Vec3A::select(wrong, next, q);
         }
     }
-    q as u16
 }
 
 /// 15-bit cosine code → cosine in [−1, 1].
@@ -335,14 +341,12 @@ fn decode_cos(q: u32) -> f32 {
     q as f32 * (2.0 / COS_MAX as f32) - 1.0
 }
 
-/// The largest 15-bit code whose cosine is ≤ `c` (a wider or equal angle).
+/// A 15-bit code whose cosine is ≤ `c` (a wider or equal angle): `c` rounded
+/// down to the grid, then checked with the decoding arithmetic.
 fn encode_cos(c: f64) -> u32 {
     let mut q = ((c + 1.0) * 0.5 * f64::from(COS_MAX)).clamp(0.0, f64::from(COS_MAX)) as u32;
     while q > 0 && f64::from(decode_cos(q)) > c {
         q -= 1;
-    }
-    while q < COS_MAX && f64::from(decode_cos(q + 1)) <= c {
-        q += 1;
     }
     q
 }
@@ -466,7 +470,8 @@ impl Node {
 }
 
 /// Probabilities (left, right) of the two children from their importances,
-/// in f64; `None` when both are 0.
+/// in f64 (a child of importance 0 gets exactly 0, its sibling exactly 1);
+/// `None` when both are 0.
 fn split_probabilities(left: f32, right: f32) -> Option<(f64, f64)> {
     let (l, r) = (f64::from(left), f64::from(right));
     let total = l + r;
@@ -490,8 +495,9 @@ impl LightBvh {
         let mut prims: Vec<Prim> = bounds
             .par_iter()
             .enumerate()
-            .filter_map(|(i, b)| Prim::new(i, b))
+            .map(|(i, b)| Prim::new(i, b).unwrap_or(Prim::LEFT_OUT))
             .collect();
+        prims.retain(|p| p.phi > 0.0);
         let (boxes, centroids) = prims
             .par_iter()
             .map(|p| (p.aabb(), Aabb::point(p.centroid())))
@@ -500,7 +506,10 @@ impl LightBvh {
                 |a, b| (a.0.merge(&b.0), a.1.merge(&b.1)),
             );
         let grid = Grid::new(boxes.lo.into(), boxes.hi.into());
-        let mut nodes = vec![Node::default(); (2 * prims.len()).saturating_sub(1)];
+        let mut nodes: Vec<Node> = (1..2 * prims.len())
+            .into_par_iter()
+            .map(|_| Node::default())
+            .collect();
         if !prims.is_empty() {
             let tree = Subtree {
                 prims: &mut prims,
@@ -526,10 +535,11 @@ impl LightBvh {
     /// to importance at each level, from `u` ∈ [0, 1): at a node, the left
     /// child is taken when u < I_l/(I_l + I_r), and u is rescaled to [0, 1)
     /// within the chosen part. Returns the light and its probability, or
-    /// `None` when the tree is empty, the root's importance is 0, or a node is
-    /// reached whose children both have importance 0.
+    /// `None` when the tree is empty, the root's importance is 0, a node is
+    /// reached whose children both have importance 0, or the probability
+    /// underflows to 0.
     pub fn sample(&self, p: Vec3, n: Vec3, u: f64) -> Option<(usize, f64)> {
-        if !(self.nodes.first()?.importance(&self.grid, p, n) > 0.0) {
+        if self.nodes.first()?.importance(&self.grid, p, n) == 0.0 {
             return None;
         }
         let mut u = if u >= 0.0 {
@@ -565,7 +575,7 @@ impl LightBvh {
         let Some(root) = self.nodes.first() else {
             return 0.0;
         };
-        if light >= self.len() || !(root.importance(&self.grid, p, n) > 0.0) {
+        if light >= self.len() || root.importance(&self.grid, p, n) == 0.0 {
             return 0.0;
         }
         let mut index = 0;
@@ -641,6 +651,18 @@ struct Prim {
 }
 
 impl Prim {
+    /// Stands for a light left out until it is removed (Φ = 0).
+    const LEFT_OUT: Prim = Prim {
+        lo: Vec3::ZERO,
+        hi: Vec3::ZERO,
+        w: Vec3::ZERO,
+        phi: 0.0,
+        cos_o: -1.0,
+        cos_e: 0.0,
+        id: 0,
+        two_sided: false,
+    };
+
     /// `None` for lights left out: Φ not > 0, a non-finite field, or i ≥ 2³¹.
     /// Otherwise the box is reordered, w normalised (a zero w means every
     /// direction) and the cosines clamped to [−1, 1].
@@ -721,6 +743,11 @@ impl Aabb {
         }
     }
 
+    fn grow(&mut self, other: &Aabb) {
+        self.lo = self.lo.min(other.lo);
+        self.hi = self.hi.max(other.hi);
+    }
+
     fn extent(&self) -> Vec3A {
         (self.hi - self.lo).max(Vec3A::ZERO)
     }
@@ -767,24 +794,26 @@ impl Side {
         }
     }
 
-    fn merge(&self, other: &Side) -> Side {
-        Side {
-            bounds: self.bounds.merge(&other.bounds),
-            axes: self.axes.merge(&other.axes),
-            phi: self.phi + other.phi,
-            count: self.count + other.count,
-            cos_o: self.cos_o.min(other.cos_o),
-            cos_e: self.cos_e.min(other.cos_e),
-        }
+    /// Adds `other`'s lights, in place.
+    fn add(&mut self, other: &Side) {
+        self.bounds.grow(&other.bounds);
+        self.axes.grow(&other.axes);
+        self.phi += other.phi;
+        self.count += other.count;
+        self.cos_o = self.cos_o.min(other.cos_o);
+        self.cos_e = self.cos_e.min(other.cos_e);
     }
 
     /// cos θo of a cone holding every light's normal cone: about the
     /// direction a of the axis box's centre, the smallest a·w over the box
     /// bounds the axes' angle from a, and the widest θo is added to it.
     fn cos_half_angle(&self) -> f32 {
+        if self.count == 1 {
+            return self.cos_o;
+        }
         let a = self.axes.lo + self.axes.hi;
         let length = a.length();
-        if !(length > 0.0) {
+        if !length.is_normal() {
             return -1.0;
         }
         let nearest =
@@ -806,28 +835,24 @@ impl Side {
 
 /// M_Ω(θo, θe): the integral of the clamped emission bound over the sphere,
 /// 2π(1 − cos θo) + π/2·(2θw sin θo − cos(θo − 2θw) − 2θo sin θo + cos θo)
-/// with θw = min(θo + θe, π); evaluated in f32, without trigonometry when
-/// θe = 90° and with an approximate arccosine otherwise (it only ranks splits).
+/// with θw = min(θo + θe, π); in f32 with an approximate arccosine (it only
+/// ranks splits), written without branches on the cone's width.
 fn orientation_measure(cos_o: f32, cos_e: f32) -> f64 {
     use std::f32::consts::{FRAC_PI_2, PI};
-    let (co, ce) = (cos_o, cos_e);
-    let so = sin_of(co);
-    let cap = 2.0 * PI * (1.0 - co);
-    let m = if co + ce > 0.0 {
-        // θw = θo + θe < π: 2θw sin θo − 2θo sin θo = 2θe sin θo, and
-        // cos(θo − 2θw) = cos(θo + 2θe).
-        let theta_e = if ce == 0.0 {
-            FRAC_PI_2
-        } else {
-            approx_acos(ce)
-        };
-        let cos_o_2e = co * (2.0 * ce * ce - 1.0) - so * (2.0 * sin_of(ce) * ce);
-        cap + FRAC_PI_2 * (2.0 * theta_e * so - cos_o_2e + co)
+    let (co, so) = (cos_o, sin_of(cos_o));
+    let (ce, se) = (cos_e, sin_of(cos_e));
+    let theta_o = approx_acos(co);
+    let theta_e = if ce == 0.0 {
+        FRAC_PI_2
     } else {
-        // θw = π: cos(θo − 2π) = cos θo cancels.
-        cap + PI * (PI - approx_acos(co)) * so
+        approx_acos(ce)
     };
-    f64::from(m)
+    // θw − θo, and cos(θo − 2θw) = cos(θo + 2θe) unless θw = π.
+    let spread = theta_e.min(PI - theta_o);
+    let wraps = theta_o + theta_e >= PI;
+    let cos_o_2e = co * (2.0 * ce * ce - 1.0) - so * (2.0 * se * ce);
+    let cos_o_2w = if wraps { co } else { cos_o_2e };
+    f64::from(2.0 * PI * (1.0 - co) + FRAC_PI_2 * (2.0 * spread * so - cos_o_2w + co))
 }
 
 /// arccos within 7e-5 (Abramowitz & Stegun 4.4.45).
@@ -855,7 +880,7 @@ fn cheapest_cut(n: usize, item: impl Fn(usize) -> Side, pad: f32) -> Option<(f64
     let mut suffix_cost = [f64::INFINITY; MAX_CUT_ITEMS];
     let mut suffix = Side::EMPTY;
     for k in (1..n).rev() {
-        suffix = item(k).merge(&suffix);
+        suffix.add(&item(k));
         if suffix.count > 0 {
             suffix_cost[k] = suffix.cost(pad);
         }
@@ -867,7 +892,7 @@ fn cheapest_cut(n: usize, item: impl Fn(usize) -> Side, pad: f32) -> Option<(f64
         if next.count == 0 {
             continue;
         }
-        prefix = prefix.merge(&next);
+        prefix.add(&next);
         let cost = prefix.cost(pad) + suffix_cost[k + 1];
         if cost.is_finite() && best.is_none_or(|b| cost < b.0) {
             best = Some((cost, k + 1));
@@ -881,6 +906,19 @@ fn cheapest_cut(n: usize, item: impl Fn(usize) -> Side, pad: f32) -> Option<(f64
 struct Bin {
     side: Side,
     centroids: Aabb,
+}
+
+impl Bin {
+    const EMPTY: Bin = Bin {
+        side: Side::EMPTY,
+        centroids: Aabb::EMPTY,
+    };
+
+    /// Adds `other`'s lights, in place.
+    fn add(&mut self, other: &Bin) {
+        self.side.add(&other.side);
+        self.centroids.grow(&other.centroids);
+    }
 }
 
 /// Maps centroids to buckets along the axes where their box has extent.
@@ -903,24 +941,40 @@ impl Binner {
         }
     }
 
-    fn bucket(&self, centroid: Vec3A, axis: usize) -> usize {
-        (((centroid[axis] - self.lo[axis]) * self.scale[axis]) as usize).min(BUCKETS - 1)
+    /// Bucket of a centroid along each axis.
+    fn buckets(&self, centroid: Vec3A) -> [usize; 3] {
+        let b = ((centroid - self.lo) * self.scale).as_uvec3();
+        [b.x, b.y, b.z].map(|b| (b as usize).min(BUCKETS - 1))
     }
 
-    /// Bins the lights along every active axis, in one pass.
+    /// Whether a light's bucket along `axis` is below `cut`; the same
+    /// arithmetic as [`buckets`](Self::buckets), for one axis.
+    fn below(&self, p: &Prim, axis: usize, cut: usize) -> bool {
+        let centroid = (p.lo[axis] + p.hi[axis]) * 0.5;
+        let b = ((centroid - self.lo[axis]) * self.scale[axis]) as u32;
+        (b as usize).min(BUCKETS - 1) < cut
+    }
+
+    /// Bins the lights along every active axis, in one pass (halves of
+    /// large sets binned in parallel).
     fn bin(&self, prims: &[Prim]) -> [[Bin; BUCKETS]; 3] {
-        let empty = Bin {
-            side: Side::EMPTY,
-            centroids: Aabb::EMPTY,
-        };
-        let mut bins = [[empty; BUCKETS]; 3];
+        if prims.len() >= PARALLEL_BINNING_MIN {
+            let (a, b) = prims.split_at(prims.len() / 2);
+            let (mut bins, other) = rayon::join(|| self.bin(a), || self.bin(b));
+            for (bin, more) in bins.iter_mut().flatten().zip(other.iter().flatten()) {
+                bin.add(more);
+            }
+            return bins;
+        }
+        let mut bins = [[Bin::EMPTY; BUCKETS]; 3];
         for p in prims {
             let (c, side) = (p.centroid(), Side::of(p));
+            let buckets = self.buckets(c);
             for (axis, row) in bins.iter_mut().enumerate() {
                 if self.active[axis] {
-                    let bin = &mut row[self.bucket(c, axis)];
-                    bin.side = bin.side.merge(&side);
-                    bin.centroids = bin.centroids.merge(&Aabb::point(c));
+                    let bin = &mut row[buckets[axis]];
+                    bin.side.add(&side);
+                    bin.centroids.grow(&Aabb::point(c));
                 }
             }
         }
@@ -991,7 +1045,7 @@ fn binned_split(prims: &mut [Prim], centroids: Aabb) -> Option<Split> {
         bins.iter()
             .fold(Aabb::EMPTY, |b, bin| b.merge(&bin.centroids))
     };
-    let mid = partition(prims, |p| binner.bucket(p.centroid(), axis) < cut);
+    let mid = partition(prims, |p| binner.below(p, axis, cut));
     let split = Split {
         mid,
         left: union(&bins[axis][..cut]),
@@ -1003,14 +1057,18 @@ fn binned_split(prims: &mut [Prim], centroids: Aabb) -> Option<Split> {
 /// Split of a small node: the lights sorted by centroid along each axis, every
 /// cut tried.
 fn small_split(prims: &mut [Prim], centroids: Aabb) -> Option<Split> {
-    let node = prims.iter().fold(Aabb::EMPTY, |b, p| b.merge(&p.aabb()));
+    let n = prims.len();
+    let sides: [Side; SMALL_NODE] =
+        std::array::from_fn(|k| prims.get(k).map_or(Side::EMPTY, Side::of));
+    let keys: [Vec3A; SMALL_NODE] =
+        std::array::from_fn(|k| sides[k].bounds.lo + sides[k].bounds.hi);
+    let node = sides.iter().fold(Aabb::EMPTY, |b, s| b.merge(&s.bounds));
     let (kr, pad) = axis_weights(&node);
     let active = centroids.extent().cmpgt(Vec3A::ZERO);
     let mut best: Option<(f64, [u8; SMALL_NODE], usize)> = None;
     for axis in (0..3).filter(|&k| active.test(k)) {
-        let order = sorted_along(prims, axis);
-        let side = |k: usize| Side::of(&prims[usize::from(order[k])]);
-        if let Some((cost, cut)) = cheapest_cut(prims.len(), side, pad) {
+        let order = sorted_along(&keys[..n], axis);
+        if let Some((cost, cut)) = cheapest_cut(n, |k| sides[usize::from(order[k])], pad) {
             let cost = kr[axis] * cost;
             if best.is_none_or(|b| cost < b.0) {
                 best = Some((cost, order, cut));
@@ -1019,7 +1077,7 @@ fn small_split(prims: &mut [Prim], centroids: Aabb) -> Option<Split> {
     }
     let (_, order, mid) = best?;
     let sorted: [Prim; SMALL_NODE] = std::array::from_fn(|k| prims[usize::from(order[k])]);
-    prims.copy_from_slice(&sorted[..prims.len()]);
+    prims.copy_from_slice(&sorted[..n]);
     Some(Split {
         mid,
         left: centroids,
@@ -1027,18 +1085,14 @@ fn small_split(prims: &mut [Prim], centroids: Aabb) -> Option<Split> {
     })
 }
 
-/// Positions of the (at most [`SMALL_NODE`]) lights sorted by centroid along
-/// `axis`, ties by light index; unused entries are 0.
-fn sorted_along(prims: &[Prim], axis: usize) -> [u8; SMALL_NODE] {
-    let key = |i: u8| {
-        let p = &prims[usize::from(i)];
-        (p.lo[axis] + p.hi[axis], p.id)
-    };
-    let before = |a: (f32, u32), b: (f32, u32)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).is_lt();
+/// Positions 0..keys.len() (at most [`SMALL_NODE`]) sorted by `keys[·][axis]`,
+/// ties kept in order; unused entries are 0.
+fn sorted_along(keys: &[Vec3A], axis: usize) -> [u8; SMALL_NODE] {
+    let key = |i: u8| keys[usize::from(i)][axis];
     let mut order = [0u8; SMALL_NODE];
-    for i in 1..prims.len().min(SMALL_NODE) as u8 {
+    for i in 1..keys.len().min(SMALL_NODE) as u8 {
         let mut j = usize::from(i);
-        while j > 0 && before(key(i), key(order[j - 1])) {
+        while j > 0 && key(i).total_cmp(&key(order[j - 1])).is_lt() {
             order[j] = order[j - 1];
             j -= 1;
         }
@@ -1085,18 +1139,54 @@ struct Task {
     centroids: Aabb,
 }
 
-impl Subtree<'_> {
-    /// Builds the subtree and returns its root's full-precision bounds; large
-    /// subtrees split here and build their halves in parallel.
+impl<'a> Subtree<'a> {
+    /// Builds the subtree and returns its root's full-precision bounds. Large
+    /// subtrees split here: two large halves are built in parallel; when one
+    /// half is small it is built at once and the loop goes on with the other,
+    /// so lopsided chains of splits do not recurse.
     fn build(self, grid: &Grid, centroids: Aabb) -> LightBounds {
-        if self.prims.len() < PARALLEL_MIN {
-            return self.build_serial(grid, centroids);
+        let (mut tree, mut centroids) = (self, centroids);
+        // (node, its topology, bounds of the half built, whether that is the left)
+        let mut pending = Vec::new();
+        let mut bounds = loop {
+            if tree.prims.len() < PARALLEL_MIN {
+                break tree.build_serial(grid, centroids);
+            }
+            let split = choose_split(tree.prims, centroids);
+            let (root, left, right) = tree.split(split.mid);
+            let topology = Node::topology(right.base, left.first, false);
+            if left.prims.len() < PARALLEL_MIN {
+                pending.push((root, topology, left.build_serial(grid, split.left), true));
+                (tree, centroids) = (right, split.right);
+            } else if right.prims.len() < PARALLEL_MIN {
+                pending.push((root, topology, right.build_serial(grid, split.right), false));
+                (tree, centroids) = (left, split.left);
+            } else {
+                let (l, r) = rayon::join(
+                    || left.build(grid, split.left),
+                    || right.build(grid, split.right),
+                );
+                let bounds = l.union(&r);
+                *root = topology.with_bounds(&bounds, grid);
+                break bounds;
+            }
+        };
+        for (root, topology, built, built_is_left) in pending.into_iter().rev() {
+            bounds = if built_is_left {
+                built.union(&bounds)
+            } else {
+                bounds.union(&built)
+            };
+            *root = topology.with_bounds(&bounds, grid);
         }
-        let split = choose_split(self.prims, centroids);
+        bounds
+    }
+
+    /// The root node and the two child subtrees when lights `..mid` go left.
+    fn split(self, mid: usize) -> (&'a mut Node, Subtree<'a>, Subtree<'a>) {
         let (root, rest) = self.nodes.split_at_mut(1);
-        let (left_nodes, right_nodes) = rest.split_at_mut(2 * split.mid - 1);
-        let (left_prims, right_prims) = self.prims.split_at_mut(split.mid);
-        let right_index = self.base + 2 * split.mid as u32;
+        let (left_nodes, right_nodes) = rest.split_at_mut(2 * mid - 1);
+        let (left_prims, right_prims) = self.prims.split_at_mut(mid);
         let left = Subtree {
             prims: left_prims,
             nodes: left_nodes,
@@ -1106,20 +1196,14 @@ impl Subtree<'_> {
         let right = Subtree {
             prims: right_prims,
             nodes: right_nodes,
-            base: right_index,
-            first: self.first + split.mid as u32,
+            base: self.base + 2 * mid as u32,
+            first: self.first + mid as u32,
         };
-        let (lb, rb) = rayon::join(
-            || left.build(grid, split.left),
-            || right.build(grid, split.right),
-        );
-        let bounds = lb.union(&rb);
-        root[0] = Node::topology(right_index, self.first, false).with_bounds(&bounds, grid);
-        bounds
+        (&mut root[0], left, right)
     }
 
-    /// Builds top-down with an explicit stack (any depth), then fills in the
-    /// bounds bottom-up: children always follow their parent in the array.
+    /// Builds top-down with an explicit stack (any depth), then computes and
+    /// quantises the bounds bottom-up.
     fn build_serial(self, grid: &Grid, centroids: Aabb) -> LightBounds {
         let Subtree {
             prims,
@@ -1127,7 +1211,6 @@ impl Subtree<'_> {
             base,
             first,
         } = self;
-        let mut bounds = vec![prims[0].bounds(); nodes.len()];
         let mut stack = vec![Task {
             start: 0,
             end: prims.len(),
@@ -1137,7 +1220,6 @@ impl Subtree<'_> {
         while let Some(task) = stack.pop() {
             let light = first + task.start as u32;
             if task.end - task.start == 1 {
-                bounds[task.node] = prims[task.start].bounds();
                 nodes[task.node] = Node::topology(light, light, true);
                 continue;
             }
@@ -1157,14 +1239,23 @@ impl Subtree<'_> {
                 centroids: split.left,
             });
         }
-        for i in (0..nodes.len()).rev() {
-            if !nodes[i].is_leaf() {
-                let right = (nodes[i].link - base) as usize;
-                bounds[i] = bounds[i + 1].union(&bounds[right]);
-            }
-            nodes[i] = nodes[i].with_bounds(&bounds[i], grid);
+        // In reverse depth-first order a node comes right after its left
+        // subtree, which comes right after its right subtree: the children's
+        // bounds are the top two entries of a stack.
+        let mut done: Vec<LightBounds> = Vec::new();
+        for node in nodes.iter_mut().rev() {
+            let bounds = if node.is_leaf() {
+                prims[(node.first - first) as usize].bounds()
+            } else {
+                let n = done.len();
+                let bounds = done[n - 1].union(&done[n - 2]);
+                done.truncate(n - 2);
+                bounds
+            };
+            *node = node.with_bounds(&bounds, grid);
+            done.push(bounds);
         }
-        bounds[0]
+        done[0]
     }
 }
 
@@ -1400,12 +1491,6 @@ mod tests {
         mass
     }
 
-    fn root_importance(bvh: &LightBvh, p: Vec3, n: Vec3) -> f32 {
-        bvh.nodes
-            .first()
-            .map_or(0.0, |r| r.importance(&bvh.grid, p, n))
-    }
-
     /// Checks, at (p, n), with `m` stratified samples: returned pmf == `pmf`
     /// bit for bit; hit frequency matches pmf for well-sampled lights; Σ pmf
     /// plus the dead-end mass is 1. Returns the dead-end mass.
@@ -1439,7 +1524,7 @@ mod tests {
             }
         }
         let dead = dead_end_mass(bvh, p, n);
-        if root_importance(bvh, p, n) > 0.0 {
+        if bvh.root_importance(p, n) > 0.0 {
             assert!(
                 (total + dead - 1.0).abs() < 1e-6,
                 "Σ pmf {total} + dead ends {dead}"
@@ -1466,7 +1551,7 @@ mod tests {
     #[test]
     fn sampled_frequencies_match_pmf() {
         let mut rng = Rand::new(1);
-        let (mut points, mut with_dead_ends) = (0, 0);
+        let (mut points, mut with_dead_ends, mut dead_mass) = (0, 0, 0.0f64);
         for &count in &[1, 2, 3, 100, 5000] {
             for seed in 0..3 {
                 let mut scene_rng = Rand::new(100 * count as u64 + seed);
@@ -1478,17 +1563,21 @@ mod tests {
                     let dead = check_frequencies(&bvh, p, n, 10_000, &mut rng);
                     points += 1;
                     with_dead_ends += usize::from(dead > 0.0);
+                    dead_mass = dead_mass.max(dead);
                 }
             }
         }
-        println!("{with_dead_ends} of {points} shading points reach a node whose children both have importance 0");
+        println!(
+            "{with_dead_ends} of {points} shading points can reach a node whose children both \
+             have importance 0 (largest probability {dead_mass:.3})"
+        );
     }
 
     #[test]
     fn contributing_lights_have_positive_pmf() {
         let mut rng = Rand::new(2);
         let mut checked = 0;
-        for &count in &[1, 2, 3, 100, 2000] {
+        for &count in &[1, 2, 3, 100, 5000] {
             for seed in 0..4 {
                 let mut scene_rng = Rand::new(7 + 1000 * count as u64 + seed);
                 let scene = random_scene(&mut scene_rng, count);
@@ -1499,8 +1588,10 @@ mod tests {
                         assert!(i.is_finite() && i >= 0.0);
                     }
                     for (light, &original) in order.iter().enumerate() {
-                        if scene.emitters[original as usize].contributes(p, n, &mut rng) {
+                        let original = original as usize;
+                        if scene.emitters[original].contributes(p, n, &mut rng) {
                             checked += 1;
+                            assert!(scene.bounds[original].importance(p, n) > 0.0);
                             assert!(
                                 bvh.pmf(p, n, light) > 0.0,
                                 "light {original} at p {p} n {n}"
@@ -1710,50 +1801,92 @@ mod tests {
 
     #[test]
     fn deep_trees_keep_exact_pmf() {
-        // A chain of lights at geometrically shrinking distances and sizes,
-        // each holding most of the power of what remains, beside random ones.
         let mut rng = Rand::new(8);
-        let mut scene = random_scene(&mut rng, 20_000);
-        for b in &mut scene.bounds {
-            b.lo += Vec3::splat(3.0);
-            b.hi += Vec3::splat(3.0);
-        }
-        for i in 0..160 {
-            let x = 0.8f32.powi(i);
-            let size = 0.01 * x;
-            scene.bounds.push(LightBounds {
+        // A chain of lights at geometrically shrinking distances and sizes,
+        // each holding most of the power of what remains: the cost peels one
+        // light per level.
+        let chain = 85;
+        let chain_light = |i: i32| {
+            let x = 0.9f32.powi(i);
+            LightBounds {
                 lo: Vec3::new(x, 0.0, 0.0),
-                hi: Vec3::new(x + size, size, size),
-                phi: 1e20 * 0.6f32.powi(i),
+                hi: Vec3::new(1.01 * x, 0.01 * x, 0.01 * x),
+                phi: (3e38 * 0.12f64.powi(i)) as f32,
                 w: Vec3::Z,
                 cos_theta_o: 1.0,
                 cos_theta_e: 0.0,
                 two_sided: false,
-            });
-        }
-        let (bvh, _) = LightBvh::build(&scene.bounds);
+            }
+        };
+        let lights: Vec<LightBounds> = (0..chain).map(chain_light).collect();
+        let (bvh, _) = LightBvh::build(&lights);
         let depth = max_depth(&bvh);
-        println!("deep tree: {} lights, depth {depth}", bvh.len());
+        println!("chain: {} lights, depth {depth}", bvh.len());
         assert!(depth > 64);
-        let mut deepest_hit = 0;
-        for _ in 0..200 {
-            let (p, n) = (
-                rng.point(-0.2, 1.2) * Vec3::new(1.0, 0.01, 0.01),
-                rng.unit(),
-            );
-            for _ in 0..200 {
+        let mut deepest_sampled = 0;
+        for _ in 0..300 {
+            // Just above a chain light, or anywhere near the chain.
+            let x = 0.9f32.powi(rng.below(chain as usize) as i32);
+            let p = match rng.below(2) {
+                0 => Vec3::new(x * 1.005, x * 0.005, x * 0.01),
+                _ => Vec3::new(rng.range(0.0, 2.0), 0.0, rng.range(0.1, 1.0)) * x,
+            };
+            let n = (rng.unit() - 2.0 * Vec3::Z).normalize_or_zero();
+            for _ in 0..100 {
                 if let Some((light, pmf)) = bvh.sample(p, n, rng.f64()) {
                     assert_eq!(pmf.to_bits(), bvh.pmf(p, n, light).to_bits());
-                    deepest_hit = deepest_hit.max(light);
+                    deepest_sampled = deepest_sampled.max(leaf_depth(&bvh, light));
                 }
             }
             let total: f64 = (0..bvh.len()).map(|l| bvh.pmf(p, n, l)).sum();
-            let dead = dead_end_mass(&bvh, p, n);
-            if root_importance(&bvh, p, n) > 0.0 {
-                assert!((total + dead - 1.0).abs() < 1e-6);
+            if bvh.root_importance(p, n) > 0.0 {
+                assert!((total + dead_end_mass(&bvh, p, n) - 1.0).abs() < 1e-6);
             }
         }
-        check_frequencies(&bvh, Vec3::new(1e-3, 0.0, 0.5), -Vec3::Z, 10_000, &mut rng);
+        println!("deepest sampled leaf: {deepest_sampled}");
+        assert!(deepest_sampled > 64);
+        let x = 0.9f32.powi(70);
+        let (p, n) = (Vec3::new(x * 1.005, x * 0.005, x * 0.01), -Vec3::Z);
+        check_frequencies(&bvh, p, n, 10_000, &mut rng);
+
+        // The chain ending in a cluster of 100,000 lights shrunk to 1e-32:
+        // split after split peels a light or two off a large set.
+        let mut scene = random_scene(&mut rng, 100_000);
+        for b in &mut scene.bounds {
+            (b.lo, b.hi) = (b.lo * 1e-32, b.hi * 1e-32);
+            (b.w, b.cos_theta_o, b.two_sided) = (Vec3::Z, 1.0, false);
+        }
+        scene.bounds.extend((0..chain).map(chain_light));
+        let (bvh, _) = LightBvh::build(&scene.bounds);
+        println!(
+            "chain and cluster: {} lights, depth {}",
+            bvh.len(),
+            max_depth(&bvh)
+        );
+        for _ in 0..100 {
+            let p = Vec3::new(rng.range(0.0, 1.0), 0.0, rng.range(0.0, 0.1)) * 1e-3;
+            let n = (rng.unit() - 2.0 * Vec3::Z).normalize_or_zero();
+            for _ in 0..100 {
+                if let Some((light, pmf)) = bvh.sample(p, n, rng.f64()) {
+                    assert_eq!(pmf.to_bits(), bvh.pmf(p, n, light).to_bits());
+                }
+            }
+        }
+    }
+
+    /// Depth of the leaf of `light`, found by its id range.
+    fn leaf_depth(bvh: &LightBvh, light: usize) -> usize {
+        let (mut index, mut depth) = (0, 0);
+        while !bvh.nodes[index].is_leaf() {
+            let right = bvh.nodes[index].link as usize;
+            index = if light >= bvh.nodes[right].first as usize {
+                right
+            } else {
+                index + 1
+            };
+            depth += 1;
+        }
+        depth
     }
 
     #[test]
@@ -1765,7 +1898,8 @@ mod tests {
             let (bvh, _) = LightBvh::build(&scene.bounds);
             let seconds = start.elapsed().as_secs_f64();
             println!(
-                "{count} lights: build {seconds:.3} s, depth {}, {} nodes, {:.1} bytes/light",
+                "{count} lights: build {seconds:.3} s (beside the other tests), depth {}, {} nodes, \
+                 {:.1} bytes/light",
                 max_depth(&bvh),
                 bvh.node_count(),
                 bvh.bytes() as f64 / bvh.len() as f64

@@ -8,7 +8,6 @@
 
 mod bvh;
 // `!(x > 0.0)` is the BVH's deliberate NaN-rejecting test.
-#[allow(clippy::neg_cmp_op_on_partial_ord)]
 pub mod light_bvh;
 pub mod oracle;
 
