@@ -11,7 +11,7 @@ mod png;
 
 pub use self::atomic::write_atomically;
 pub use self::exr::{read_exr_rgb, write_exr};
-pub use self::png::write_png_preview;
+pub use self::png::{write_png_preview, write_rgb8};
 
 use anyhow::ensure;
 

@@ -41,13 +41,18 @@ pub fn write_png_preview(path: &Path, image: &RgbImage, exposure: f32) -> anyhow
         .iter()
         .flat_map(|pixel| pixel.map(|c| srgb8(c * scale)))
         .collect();
+    write_rgb8(path, width, height, &bytes)
+}
+
+/// Writes 8-bit RGB bytes (row 0 at the top) as an sRGB-tagged PNG, atomically.
+pub fn write_rgb8(path: &Path, width: u32, height: u32, bytes: &[u8]) -> anyhow::Result<()> {
     write_atomically(path, |out| {
         let mut encoder = png::Encoder::new(&mut *out, width, height);
         encoder.set_color(png::ColorType::Rgb);
         encoder.set_depth(png::BitDepth::Eight);
         encoder.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
         let mut writer = encoder.write_header().context("PNG header")?;
-        writer.write_image_data(&bytes).context("PNG data")?;
+        writer.write_image_data(bytes).context("PNG data")?;
         writer.finish().context("PNG end")
     })
 }

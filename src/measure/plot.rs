@@ -2,12 +2,12 @@
 //! its spp values) and false-colour PNGs of the per-pixel relative squared error
 //! (x − r)² / (r² + 1e-2), averaged over channels.
 
-use anyhow::{anyhow, Context};
+use anyhow::anyhow;
 use plotters::prelude::*;
 
 use super::bench::{estimator_label, BenchRow};
 use super::metrics::REL_MSE_EPSILON;
-use crate::image::{write_atomically, RgbImage};
+use crate::image::{write_atomically, write_rgb8, RgbImage};
 
 /// Writes the relMSE-versus-seconds plot of `rows` as SVG, atomically.
 pub fn plot_relmse_vs_seconds(
@@ -145,14 +145,7 @@ pub fn write_error_image(
         .flat_map(|&e| false_colour((e.max(1e-300).log10() - lo) / (hi - lo)))
         .collect();
     let (w, h) = (image.width as u32, image.height as u32);
-    write_atomically(path, |out| {
-        let mut encoder = png::Encoder::new(&mut *out, w, h);
-        encoder.set_color(png::ColorType::Rgb);
-        encoder.set_depth(png::BitDepth::Eight);
-        let mut writer = encoder.write_header().context("PNG header")?;
-        writer.write_image_data(&bytes).context("PNG data")?;
-        writer.finish().context("PNG end")
-    })
+    write_rgb8(path, w, h, &bytes)
 }
 
 #[cfg(test)]
