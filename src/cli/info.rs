@@ -4,6 +4,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 
+use crate::lights::power_stats::PowerStats;
 use crate::lights::Lights;
 use crate::scene::{load_gltf, CameraChoice};
 
@@ -51,6 +52,21 @@ pub fn run(args: &InfoArgs) -> anyhow::Result<()> {
             c.aspect_ratio.map_or("from --width/--height".into(), |a| format!("{a:.4}"))
         ),
         None => println!("camera             none (render frames the bounds from +Z)"),
+    }
+    if let Some(p) = PowerStats::of(&lights) {
+        println!(
+            "power per light    min {:.3e}  median {:.3e}  max {:.3e} W ({} with zero power)",
+            p.min_positive, p.median, p.max, p.zero
+        );
+        println!(
+            "top 1% of lights   hold {:.1}% of the power",
+            100.0 * p.top_percent_share
+        );
+        println!(
+            "emissive sides     {} one-sided, {} two-sided",
+            p.one_sided, p.two_sided
+        );
+        print!("power histogram\n{}", p.histogram(40));
     }
     let s = &scene.stats;
     println!(

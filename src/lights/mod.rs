@@ -2,6 +2,7 @@
 //! for selection and its own sampling routine.
 
 pub mod polygon;
+pub mod power_stats;
 pub mod punctual;
 pub mod spherical_triangle;
 pub mod triangle;
