@@ -63,17 +63,39 @@ pub fn load_gltf(path: &Path, camera: &CameraChoice) -> Result<Scene, LoadError>
         path: path.into(),
         source,
     })?;
-    let gltf = gltf::Gltf::from_slice(&bytes).map_err(|e| LoadError::Format {
+    let base_dir = path.parent().unwrap_or(Path::new("."));
+    load_gltf_bytes(&bytes, path, base_dir, camera)
+}
+
+/// Loads the default scene of a glTF or GLB file already in memory. `path_for_messages` names
+/// the file in errors; external buffer URIs resolve relative to `base_dir`. Never panics: any
+/// input gives a scene or a [`LoadError`].
+pub fn load_gltf_bytes(
+    bytes: &[u8],
+    path_for_messages: &Path,
+    base_dir: &Path,
+    camera: &CameraChoice,
+) -> Result<Scene, LoadError> {
+    let path = path_for_messages;
+    check_glb_header(bytes).map_err(|message| LoadError::Format {
         path: path.into(),
-        message: e.to_string(),
+        message,
     })?;
+    let format = |message: String| LoadError::Format {
+        path: path.into(),
+        message,
+    };
+    // Parse, check what the crate's validator indexes unchecked, then validate.
+    let gltf::Gltf { document, blob } =
+        gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| format(e.to_string()))?;
+    let root = document.into_json();
+    check_position_indices(&root).map_err(format)?;
+    let document = gltf::Document::from_json(root).map_err(|e| format(e.to_string()))?;
     let invalid = |element: String, message: String| LoadError::Invalid {
         path: path.into(),
         element,
         message,
     };
-    let base_dir = path.parent().unwrap_or(Path::new("."));
-    let gltf::Gltf { document, blob } = gltf;
     let buffers = load_buffers(&document, blob, base_dir).map_err(|(e, m)| invalid(e, m))?;
 
     let mut loader = Loader {
@@ -143,6 +165,45 @@ pub fn load_gltf(path: &Path, camera: &CameraChoice) -> Result<Scene, LoadError>
     scene.stats.skipped_primitives = stats.skipped_primitives;
     scene.stats.degenerate_triangles += stats.degenerate_triangles;
     Ok(scene)
+}
+
+/// Checks what the `gltf` crate's GLB reader takes on trust: the header's total length must
+/// cover at least the header itself (a smaller one underflows inside the crate).
+fn check_glb_header(bytes: &[u8]) -> Result<(), String> {
+    if !bytes.starts_with(b"glTF") {
+        return Ok(());
+    }
+    let Some(length) = bytes.get(8..12) else {
+        return Err(format!("GLB header is truncated ({} bytes)", bytes.len()));
+    };
+    let length = u32::from_le_bytes([length[0], length[1], length[2], length[3]]);
+    if length < 12 {
+        return Err(format!(
+            "GLB header declares a total length of {length} bytes"
+        ));
+    }
+    Ok(())
+}
+
+/// The `gltf` crate's validator reads each primitive's POSITION accessor without a bounds check.
+fn check_position_indices(root: &gltf::json::Root) -> Result<(), String> {
+    use gltf::json::validation::Checked;
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            let position = Checked::Valid(gltf::json::mesh::Semantic::Positions);
+            if let Some(index) = prim.attributes.get(&position) {
+                if index.value() >= root.accessors.len() {
+                    return Err(format!(
+                        "meshes[{m}].primitives[{p}].attributes.POSITION: accessor {} does not \
+                         exist ({} accessors)",
+                        index.value(),
+                        root.accessors.len()
+                    ));
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 fn quoted(name: Option<&str>) -> String {
@@ -247,7 +308,13 @@ impl Loader<'_> {
         let pos_acc = prim
             .get(&gltf::Semantic::Positions)
             .ok_or("has no POSITION attribute")?;
-        check_accessor(&pos_acc, "POSITION", &[Dimensions::Vec3], &[DataType::F32])?;
+        check_accessor(
+            &pos_acc,
+            "POSITION",
+            &[Dimensions::Vec3],
+            &[DataType::F32],
+            self.buffers,
+        )?;
         let positions: Vec<Vec3> = reader
             .read_positions()
             .ok_or_else(|| out_of_range("POSITION", &pos_acc))?
@@ -267,7 +334,13 @@ impl Loader<'_> {
         let normals = prim
             .get(&gltf::Semantic::Normals)
             .map(|acc| {
-                check_accessor(&acc, "NORMAL", &[Dimensions::Vec3], &[DataType::F32])?;
+                check_accessor(
+                    &acc,
+                    "NORMAL",
+                    &[Dimensions::Vec3],
+                    &[DataType::F32],
+                    self.buffers,
+                )?;
                 let n = reader
                     .read_normals()
                     .ok_or_else(|| out_of_range("NORMAL", &acc))?;
@@ -278,7 +351,13 @@ impl Loader<'_> {
             .get(&gltf::Semantic::TexCoords(0))
             .map(|acc| {
                 let types = [DataType::F32, DataType::U8, DataType::U16];
-                check_accessor(&acc, "TEXCOORD_0", &[Dimensions::Vec2], &types)?;
+                check_accessor(
+                    &acc,
+                    "TEXCOORD_0",
+                    &[Dimensions::Vec2],
+                    &types,
+                    self.buffers,
+                )?;
                 let uv = reader
                     .read_tex_coords(0)
                     .ok_or_else(|| out_of_range("TEXCOORD_0", &acc))?;
@@ -297,6 +376,7 @@ impl Loader<'_> {
                     "indices",
                     &[Dimensions::Scalar],
                     &[DataType::U8, DataType::U16, DataType::U32],
+                    self.buffers,
                 )?;
                 let idx: Vec<u32> = reader
                     .read_indices()
@@ -391,6 +471,7 @@ fn check_accessor(
     what: &str,
     dims: &[Dimensions],
     types: &[DataType],
+    buffers: &[Vec<u8>],
 ) -> Result<(), String> {
     if !dims.contains(&acc.dimensions()) || !types.contains(&acc.data_type()) {
         return Err(format!(
@@ -409,6 +490,83 @@ fn check_accessor(
         return Err(format!(
             "{what} (accessor {}) has no buffer view",
             acc.index()
+        ));
+    }
+    check_accessor_extent(acc, buffers)
+        .map_err(|m| format!("{what} (accessor {}): {m}", acc.index()))
+}
+
+/// An accessor without a buffer view (all zeros plus sparse values) may not have more elements
+/// than this: the count would otherwise be an allocation of any size the file asks for.
+const MAX_VIEWLESS_ELEMENTS: usize = 1 << 24;
+
+/// Checks, with overflow-checked arithmetic, that every element the `gltf` crate's reader will
+/// touch lies inside its buffer view and every view inside its buffer's data, and that strides
+/// are at least the element size. The crate computes these ranges unchecked (an overflow, or a
+/// stride smaller than the element, panics inside it), so this runs before any read.
+fn check_accessor_extent(acc: &gltf::Accessor, buffers: &[Vec<u8>]) -> Result<(), String> {
+    let size = acc.size();
+    if let Some(view) = acc.view() {
+        check_elements(&view, acc.offset(), acc.count(), size, buffers)?;
+    } else if acc.count() > MAX_VIEWLESS_ELEMENTS {
+        return Err(format!(
+            "{} elements without a buffer view (at most {MAX_VIEWLESS_ELEMENTS})",
+            acc.count()
+        ));
+    }
+    if let Some(sparse) = acc.sparse() {
+        let n = sparse.count();
+        if n == 0 || n > acc.count() {
+            return Err(format!("sparse count {n} is not in 1..={}", acc.count()));
+        }
+        let indices = sparse.indices();
+        let index_size = indices.index_type().size();
+        check_elements(&indices.view(), indices.offset(), n, index_size, buffers)
+            .map_err(|m| format!("sparse indices: {m}"))?;
+        let values = sparse.values();
+        check_elements(&values.view(), values.offset(), n, size, buffers)
+            .map_err(|m| format!("sparse values: {m}"))?;
+    }
+    Ok(())
+}
+
+/// `count` (≥ 1) elements of `size` bytes from `offset` in `view`, at the view's stride.
+fn check_elements(
+    view: &gltf::buffer::View,
+    offset: usize,
+    count: usize,
+    size: usize,
+    buffers: &[Vec<u8>],
+) -> Result<(), String> {
+    let present = buffers.get(view.buffer().index()).map_or(0, Vec::len);
+    let view_end = view.offset().checked_add(view.length());
+    if view_end.is_none_or(|end| end > present) {
+        return Err(format!(
+            "buffer view {} (offset {}, length {}) extends past the {present} bytes of buffer {}",
+            view.index(),
+            view.offset(),
+            view.length(),
+            view.buffer().index()
+        ));
+    }
+    let stride = view.stride().unwrap_or(size);
+    if stride < size {
+        return Err(format!(
+            "buffer view {} has stride {stride}, less than the element size {size}",
+            view.index()
+        ));
+    }
+    let end = count
+        .checked_sub(1)
+        .and_then(|n| n.checked_mul(stride))
+        .and_then(|n| n.checked_add(offset))
+        .and_then(|n| n.checked_add(size));
+    if end.is_none_or(|end| end > view.length()) {
+        return Err(format!(
+            "{count} elements of {size} bytes at offset {offset}, stride {stride} do not fit in \
+             buffer view {} ({} bytes)",
+            view.index(),
+            view.length()
         ));
     }
     Ok(())

@@ -10,7 +10,7 @@ mod gltf_load;
 pub mod gltf_write;
 
 pub use camera::Camera;
-pub use gltf_load::{load_gltf, CameraChoice, LoadError};
+pub use gltf_load::{load_gltf, load_gltf_bytes, CameraChoice, LoadError};
 
 use glam::{Vec2, Vec3};
 
