@@ -1,0 +1,178 @@
+//! Minimised inputs from `tests/fuzz_loader.rs`, each of which once panicked (inside the `gltf`
+//! crate) or asked for an unbounded allocation. Every one must now give a clean `LoadError`.
+
+use std::path::Path;
+
+use base64::Engine;
+use manylights::scene::{load_gltf_bytes, CameraChoice, LoadError};
+use serde_json::{json, Value};
+
+/// One triangle: three f32 VEC3 positions (36 bytes) in buffer 0, view 0, accessor 0.
+fn triangle() -> Value {
+    let floats: [f32; 9] = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0];
+    let bin: Vec<u8> = floats.iter().flat_map(|f| f.to_le_bytes()).collect();
+    let uri = format!(
+        "data:application/octet-stream;base64,{}",
+        base64::engine::general_purpose::STANDARD.encode(&bin)
+    );
+    json!({
+        "asset": {"version": "2.0"},
+        "scene": 0,
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+        "buffers": [{"uri": uri, "byteLength": bin.len()}],
+        "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": bin.len()}],
+        "accessors": [{
+            "bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+            "min": [0, 0, 0], "max": [1, 1, 0]
+        }]
+    })
+}
+
+fn load(bytes: &[u8]) -> Result<manylights::scene::Scene, LoadError> {
+    let path = Path::new("regression.gltf");
+    load_gltf_bytes(bytes, path, Path::new("."), &CameraChoice::First)
+}
+
+fn load_json(doc: &Value) -> Result<manylights::scene::Scene, LoadError> {
+    load(&serde_json::to_vec(doc).unwrap())
+}
+
+/// Asserts a clean error naming the file and containing `needle`.
+fn assert_error(result: Result<manylights::scene::Scene, LoadError>, needle: &str) {
+    let e = result.err().expect("the input must be refused");
+    let text = e.to_string();
+    assert!(text.contains("regression.gltf"), "{text}");
+    assert!(text.contains(needle), "expected '{needle}' in: {text}");
+}
+
+#[test]
+fn the_fixture_itself_loads() {
+    let scene = load_json(&triangle()).unwrap();
+    assert_eq!(scene.triangles.len(), 1);
+}
+
+/// Fuzzer: gltf-json mesh.rs:151 "index out of bounds: the len is 34 but the index is
+/// 2147483647" — the crate's validator indexes the POSITION accessor unchecked.
+#[test]
+fn position_accessor_index_past_the_accessors_is_an_error() {
+    let mut doc = triangle();
+    doc["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = json!(2147483647);
+    assert_error(load_json(&doc), "accessor 2147483647 does not exist");
+    doc["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = json!(1);
+    assert_error(load_json(&doc), "accessor 1 does not exist");
+}
+
+/// Fuzzer: gltf accessor/util.rs:384 "attempt to multiply with overflow" — stride × (count − 1)
+/// computed unchecked (in release it wraps and can select a wrong but in-bounds range).
+#[test]
+fn accessor_count_whose_extent_overflows_is_an_error() {
+    let mut doc = triangle();
+    doc["accessors"][0]["count"] = json!(6148914691236517206u64);
+    assert_error(load_json(&doc), "do not fit in buffer view 0");
+}
+
+#[test]
+fn accessor_larger_than_its_view_is_an_error() {
+    let mut doc = triangle();
+    doc["accessors"][0]["count"] = json!(4);
+    assert_error(load_json(&doc), "do not fit in buffer view 0");
+    let mut doc = triangle();
+    doc["accessors"][0]["byteOffset"] = json!(4);
+    assert_error(load_json(&doc), "do not fit in buffer view 0");
+}
+
+/// A byteStride smaller than the element makes the crate's item reader slice past its chunk.
+#[test]
+fn stride_smaller_than_the_element_is_an_error() {
+    let mut doc = triangle();
+    doc["bufferViews"][0]["byteStride"] = json!(4);
+    assert_error(load_json(&doc), "stride 4, less than the element size 12");
+}
+
+/// view offset + length is computed unchecked inside the crate.
+#[test]
+fn buffer_view_whose_end_overflows_is_an_error() {
+    let mut doc = triangle();
+    doc["bufferViews"][0]["byteOffset"] = json!(18446744073709551600u64);
+    doc["bufferViews"][0]["byteLength"] = json!(36);
+    assert_error(load_json(&doc), "extends past the 36 bytes of buffer 0");
+}
+
+/// An accessor with no buffer view is `count` zeros plus sparse values: a huge count would be
+/// a huge allocation (the allocator guard of the fuzzer aborts on these).
+#[test]
+fn viewless_sparse_accessor_with_a_huge_count_is_an_error() {
+    let mut doc = triangle();
+    let acc = &mut doc["accessors"][0];
+    acc.as_object_mut().unwrap().remove("bufferView");
+    acc["count"] = json!(1u64 << 40);
+    acc["sparse"] = json!({
+        "count": 1,
+        "indices": {"bufferView": 0, "componentType": 5125},
+        "values": {"bufferView": 0}
+    });
+    assert_error(load_json(&doc), "elements without a buffer view");
+}
+
+/// sparse.count − 1 is computed unchecked inside the crate.
+#[test]
+fn sparse_count_zero_is_an_error() {
+    let mut doc = triangle();
+    doc["accessors"][0]["sparse"] = json!({
+        "count": 0,
+        "indices": {"bufferView": 0, "componentType": 5125},
+        "values": {"bufferView": 0}
+    });
+    let result = load_json(&doc);
+    let text = result.err().expect("refused").to_string();
+    assert!(text.contains("regression.gltf"), "{text}");
+}
+
+#[test]
+fn valid_sparse_accessor_still_loads() {
+    // Buffer: the three positions, then sparse index 0 (u32) and its value (0, 0, -1).
+    let mut bin: Vec<u8> = [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0]
+        .iter()
+        .flat_map(|f| f.to_le_bytes())
+        .collect();
+    bin.extend(0u32.to_le_bytes());
+    bin.extend([0.0f32, 0.0, -1.0].iter().flat_map(|f| f.to_le_bytes()));
+    let mut doc = triangle();
+    doc["buffers"][0] = json!({
+        "uri": format!(
+            "data:application/octet-stream;base64,{}",
+            base64::engine::general_purpose::STANDARD.encode(&bin)
+        ),
+        "byteLength": bin.len()
+    });
+    doc["bufferViews"] = json!([
+        {"buffer": 0, "byteOffset": 0, "byteLength": 36},
+        {"buffer": 0, "byteOffset": 36, "byteLength": 4},
+        {"buffer": 0, "byteOffset": 40, "byteLength": 12}
+    ]);
+    doc["accessors"][0]["min"] = json!([0, 0, -1]);
+    doc["accessors"][0]["sparse"] = json!({
+        "count": 1,
+        "indices": {"bufferView": 1, "componentType": 5125},
+        "values": {"bufferView": 2}
+    });
+    let scene = load_json(&doc).unwrap();
+    assert_eq!(scene.triangles.len(), 1);
+    assert_eq!(
+        scene.triangles[0].positions[0],
+        glam::Vec3::new(0.0, 0.0, -1.0)
+    );
+}
+
+/// The GLB header's total length is trusted by the crate: a value below 12 underflows.
+#[test]
+fn glb_total_length_below_the_header_is_an_error() {
+    let mut glb = Vec::new();
+    glb.extend_from_slice(b"glTF");
+    glb.extend_from_slice(&2u32.to_le_bytes());
+    glb.extend_from_slice(&4u32.to_le_bytes());
+    assert_error(load(&glb), "GLB header declares a total length of 4 bytes");
+    assert_error(load(b"glTF\x02\0"), "GLB header is truncated");
+}
