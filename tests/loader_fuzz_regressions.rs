@@ -176,3 +176,22 @@ fn glb_total_length_below_the_header_is_an_error() {
     assert_error(load(&glb), "GLB header declares a total length of 4 bytes");
     assert_error(load(b"glTF\x02\0"), "GLB header is truncated");
 }
+
+/// A chain of nodes, each listing the next as a child twice, would be traversed 2^depth times.
+#[test]
+fn node_reached_twice_is_an_error() {
+    let mut doc = triangle();
+    let depth = 64;
+    let mut nodes: Vec<Value> = (0..depth)
+        .map(|i| json!({"children": [i + 1, i + 1]}))
+        .collect();
+    nodes.push(json!({"mesh": 0}));
+    doc["nodes"] = json!(nodes);
+    let start = std::time::Instant::now();
+    assert_error(load_json(&doc), "is reached twice from the scene");
+    assert!(start.elapsed().as_secs() < 5);
+    // A root listed twice in the scene is the same mistake.
+    let mut doc = triangle();
+    doc["scenes"][0]["nodes"] = json!([0, 0]);
+    assert_error(load_json(&doc), "node 0: is reached twice");
+}

@@ -54,7 +54,7 @@ pub enum LoadError {
     },
 }
 
-/// Node hierarchies deeper than this are refused (a cycle, or a hostile file).
+/// Node hierarchies deeper than this are refused (a hostile file; cycles are caught as nodes reached twice).
 const MAX_NODE_DEPTH: usize = 256;
 
 /// Loads the default scene of a glTF or GLB file.
@@ -116,12 +116,21 @@ pub fn load_gltf_bytes(
     let mut stack: Vec<(gltf::Node, Mat4, usize)> =
         scene.nodes().map(|n| (n, Mat4::IDENTITY, 0)).collect();
     stack.reverse();
+    // glTF nodes form disjoint trees: a node reached twice (two parents, listed twice, or a
+    // cycle) is an error — a shared node in a chain would otherwise be visited 2^depth times.
+    let mut visited = vec![false; document.nodes().len()];
     while let Some((node, parent, depth)) = stack.pop() {
         let element = format!("node {}{}", node.index(), quoted(node.name()));
         if depth > MAX_NODE_DEPTH {
             return Err(invalid(
                 element,
                 format!("hierarchy deeper than {MAX_NODE_DEPTH} nodes"),
+            ));
+        }
+        if std::mem::replace(&mut visited[node.index()], true) {
+            return Err(invalid(
+                element,
+                "is reached twice from the scene (a node has at most one parent)".into(),
             ));
         }
         let local = Mat4::from_cols_array_2d(&node.transform().matrix());
