@@ -54,7 +54,8 @@ pub enum LoadError {
     },
 }
 
-/// Node hierarchies deeper than this are refused (a hostile file; cycles are caught as nodes reached twice).
+/// Node hierarchies deeper than this are refused (a hostile file; cycles are caught as nodes
+/// reached twice).
 const MAX_NODE_DEPTH: usize = 256;
 
 /// Loads the default scene of a glTF or GLB file.
