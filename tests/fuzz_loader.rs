@@ -1,6 +1,7 @@
 //! A stable-Rust mutation fuzzer for the glTF/GLB loader: it must never panic, hang or make a
 //! huge allocation, whatever the bytes. Corpus: the shipped Cornell box, a small generated town
-//! (GLB) and a JSON .gltf Cornell box. Mutations are deterministic from a PCG seed: byte flips
+//! (GLB), a JSON .gltf Cornell box, the same with KHR_lights_punctual lights, and a triangle
+//! with a sparse accessor. Mutations are deterministic from a PCG seed: byte flips
 //! and overwrites, interesting 32-bit words, truncation, chunk duplication and deletion, and
 //! JSON-aware edits (numbers replaced by huge/negative/non-finite literals, keys dropped or
 //! duplicated, componentType/type/count/byteOffset/byteLength and index references changed) —
@@ -132,7 +133,69 @@ fn corpus() -> Vec<Vec<u8>> {
     let gltf_path = dir.path().join("cornell.gltf");
     generate::cornell().write(&gltf_path).unwrap();
     let cornell_gltf = std::fs::read(&gltf_path).unwrap();
-    vec![cornell_glb, town, cornell_gltf]
+    // The same box with punctual lights (point, spot, directional) on three new root nodes.
+    let mut lit: Value = serde_json::from_slice(&cornell_gltf).unwrap();
+    lit["extensionsUsed"] = serde_json::json!(["KHR_lights_punctual"]);
+    lit["extensions"] = serde_json::json!({"KHR_lights_punctual": {"lights": [
+        {"type": "point", "color": [1, 0.9, 0.8], "intensity": 5},
+        {"type": "spot", "intensity": 20, "spot": {"innerConeAngle": 0.2, "outerConeAngle": 0.5}},
+        {"type": "directional", "intensity": 2}
+    ]}});
+    let nodes = lit["nodes"].as_array_mut().unwrap();
+    let first = nodes.len();
+    for light in 0..3 {
+        nodes.push(serde_json::json!({
+            "translation": [0, 1.5, light as f64 * 0.1],
+            "extensions": {"KHR_lights_punctual": {"light": light}}
+        }));
+    }
+    let roots = lit["scenes"][0]["nodes"].as_array_mut().unwrap();
+    roots.extend((first..first + 3).map(Value::from));
+    vec![
+        cornell_glb,
+        town,
+        cornell_gltf,
+        serde_json::to_vec(&lit).unwrap(),
+        sparse_triangle(),
+    ]
+}
+
+/// One triangle whose first vertex is replaced by a sparse value (u32 index 0 → (0, 0, -1)).
+fn sparse_triangle() -> Vec<u8> {
+    use base64::Engine;
+    let mut bin: Vec<u8> = [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0]
+        .iter()
+        .flat_map(|f| f.to_le_bytes())
+        .collect();
+    bin.extend(0u32.to_le_bytes());
+    bin.extend([0.0f32, 0.0, -1.0].iter().flat_map(|f| f.to_le_bytes()));
+    let uri = format!(
+        "data:application/octet-stream;base64,{}",
+        base64::engine::general_purpose::STANDARD.encode(&bin)
+    );
+    let doc = serde_json::json!({
+        "asset": {"version": "2.0"},
+        "scene": 0,
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+        "buffers": [{"uri": uri, "byteLength": bin.len()}],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": 36},
+            {"buffer": 0, "byteOffset": 36, "byteLength": 4},
+            {"buffer": 0, "byteOffset": 40, "byteLength": 12}
+        ],
+        "accessors": [{
+            "bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+            "min": [0, 0, -1], "max": [1, 1, 0],
+            "sparse": {
+                "count": 1,
+                "indices": {"bufferView": 1, "componentType": 5125},
+                "values": {"bufferView": 2}
+            }
+        }]
+    });
+    serde_json::to_vec(&doc).unwrap()
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -190,7 +253,7 @@ const COMPONENT_TYPES: [u64; 8] = [5120, 5121, 5122, 5123, 5124, 5125, 5126, 0];
 const TYPES: [&str; 8] = [
     "SCALAR", "VEC2", "VEC3", "VEC4", "MAT2", "MAT3", "MAT4", "BOGUS",
 ];
-const KEYS: [&str; 14] = [
+const KEYS: [&str; 16] = [
     "componentType",
     "type",
     "count",
@@ -205,6 +268,8 @@ const KEYS: [&str; 14] = [
     "camera",
     "children",
     "scene",
+    "light",
+    "sparse",
 ];
 
 fn mutate_bytes(rng: &mut Pcg32, data: &mut Vec<u8>) {
@@ -339,6 +404,18 @@ fn mutate_json_value(rng: &mut Pcg32, doc: &mut Value) -> bool {
                     "componentType" => Value::from(COMPONENT_TYPES[below(rng, 8)]),
                     "type" => Value::from(TYPES[below(rng, TYPES.len())]),
                     "children" => Value::from(vec![random_small_number(rng)]),
+                    "sparse" => {
+                        let index_type = [5121, 5123, 5125][below(rng, 3)];
+                        serde_json::json!({
+                            "count": random_small_number(rng),
+                            "indices": {
+                                "bufferView": below(rng, 4),
+                                "byteOffset": random_small_number(rng),
+                                "componentType": index_type
+                            },
+                            "values": {"bufferView": below(rng, 4), "byteOffset": below(rng, 64)}
+                        })
+                    }
                     _ => random_small_number(rng),
                 };
                 map.insert(key.to_string(), value);

@@ -195,3 +195,17 @@ fn node_reached_twice_is_an_error() {
     doc["scenes"][0]["nodes"] = json!([0, 0]);
     assert_error(load_json(&doc), "node 0: is reached twice");
 }
+
+/// KHR_lights_punctual references: a node's light index must exist in the root's light list.
+#[test]
+fn punctual_light_references_are_checked() {
+    let mut doc = triangle();
+    doc["extensionsUsed"] = json!(["KHR_lights_punctual"]);
+    doc["nodes"][0]["extensions"] = json!({"KHR_lights_punctual": {"light": 3}});
+    assert!(load_json(&doc).is_err(), "no root light list");
+    doc["extensions"] = json!({"KHR_lights_punctual": {"lights": [{"type": "point"}]}});
+    assert!(load_json(&doc).is_err(), "light 3 of 1");
+    doc["nodes"][0]["extensions"]["KHR_lights_punctual"]["light"] = json!(0);
+    let scene = load_json(&doc).unwrap();
+    assert_eq!(scene.triangles.len(), 1);
+}
