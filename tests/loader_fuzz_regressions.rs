@@ -209,3 +209,15 @@ fn punctual_light_references_are_checked() {
     let scene = load_json(&doc).unwrap();
     assert_eq!(scene.triangles.len(), 1);
 }
+
+/// A buffer URI naming a device (or a directory) must not be read: /dev/zero never ends.
+#[test]
+fn buffer_uri_that_is_not_a_regular_file_is_an_error() {
+    for uri in ["/dev/zero", "."] {
+        let mut doc = triangle();
+        doc["buffers"][0]["uri"] = json!(uri);
+        let start = std::time::Instant::now();
+        assert_error(load_json(&doc), "not a regular file");
+        assert!(start.elapsed().as_secs() < 5);
+    }
+}

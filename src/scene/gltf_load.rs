@@ -265,7 +265,14 @@ fn read_uri(uri: &str, base_dir: &Path) -> Result<Vec<u8>, String> {
             .map_err(|e| format!("data URI is not valid base64: {e}"));
     }
     let file = base_dir.join(percent_decode(uri));
-    std::fs::read(&file).map_err(|e| format!("cannot read '{uri}' ({}): {e}", file.display()))
+    let cannot =
+        |e: &dyn std::fmt::Display| format!("cannot read '{uri}' ({}): {e}", file.display());
+    // Only regular files: a device such as /dev/zero or a FIFO would never end or never answer.
+    let meta = std::fs::metadata(&file).map_err(|e| cannot(&e))?;
+    if !meta.is_file() {
+        return Err(cannot(&"not a regular file"));
+    }
+    std::fs::read(&file).map_err(|e| cannot(&e))
 }
 
 /// Decodes %XX escapes in a relative URI (spaces are commonly written as %20).
