@@ -3,7 +3,9 @@
 //! Reads every TRIANGLES primitive of the default scene through the node hierarchy (TRS or
 //! matrix), with POSITION, NORMAL, TEXCOORD_0 and indices of any width. Every accessor is checked
 //! (type, range, finiteness, index bounds) before use, so a broken file gives an error naming the
-//! file and the element instead of a panic or garbage. Non-finite positions are an error (they
+//! file and the element instead of a panic or garbage. Whatever the `gltf` crate computes unchecked
+//! from the file (GLB lengths, accessor and buffer-view extents, strides) is checked here first;
+//! `tests/fuzz_loader.rs` fuzzes all of this. Non-finite positions are an error (they
 //! signal a broken exporter, not a scene to be rendered partially); zero-area triangles are
 //! skipped and counted.
 
@@ -78,14 +80,11 @@ pub fn load_gltf_bytes(
     camera: &CameraChoice,
 ) -> Result<Scene, LoadError> {
     let path = path_for_messages;
-    check_glb_header(bytes).map_err(|message| LoadError::Format {
-        path: path.into(),
-        message,
-    })?;
     let format = |message: String| LoadError::Format {
         path: path.into(),
         message,
     };
+    check_glb_header(bytes).map_err(format)?;
     // Parse, check what the crate's validator indexes unchecked, then validate.
     let gltf::Gltf { document, blob } =
         gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| format(e.to_string()))?;
