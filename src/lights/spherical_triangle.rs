@@ -47,7 +47,7 @@ pub struct SphericalSample {
 /// rounded to `f32`. Returns 0 for a degenerate triangle, for `p` in the triangle's plane or at a
 /// vertex, and for non-finite input.
 pub fn solid_angle(p: Vec3, v: [Vec3; 3]) -> f32 {
-    View::new(p, v).map_or(0.0, |view| view.omega as f32)
+    SphericalTriangle::new(p, v).map_or(0.0, |view| view.omega as f32)
 }
 
 /// Density `1/Ω` (per steradian) of [`sample_spherical_triangle`], for MIS weights.
@@ -82,25 +82,7 @@ pub fn spherical_pdf(p: Vec3, v: [Vec3; 3]) -> f32 {
 /// Returns `None` when `Ω` is 0 (see [`solid_angle`]), when `1/Ω` overflows `f32`, or when the
 /// computation degenerates to a non-finite value.
 pub fn sample_spherical_triangle(p: Vec3, v: [Vec3; 3], u: [f32; 2]) -> Option<SphericalSample> {
-    let view = View::new(p, v)?;
-    let pdf = pdf_from_solid_angle(view.omega as f32);
-    if pdf == 0.0 {
-        return None;
-    }
-    let w = view.arvo_direction([f64::from(u[0]), f64::from(u[1])])?;
-    let bary = view.barycentrics(w)?;
-    let [v0, v1, v2] = view.vertex;
-    let point = v0 + bary[1] * (v1 - v0) + bary[2] * (v2 - v0);
-    let offset = point - view.origin;
-    let length = offset.length();
-    if !(length > 0.0 && length.is_finite()) {
-        return None;
-    }
-    Some(SphericalSample {
-        direction: (offset * length.recip()).as_vec3(),
-        point: point.as_vec3(),
-        pdf,
-    })
+    SphericalTriangle::new(p, v)?.sample(u)
 }
 
 /// `1/Ω`, or 0 if `Ω` is 0 or its reciprocal is not a finite `f32`.
@@ -123,8 +105,9 @@ fn unit_or_zero(x: DVec3) -> DVec3 {
     }
 }
 
-/// The triangle as seen from `p`, in `f64`.
-struct View {
+/// The triangle as seen from `p`, in `f64`: set up once, then its solid angle, density and
+/// samples all come from the same Ω (so a caller's threshold test and the sample agree).
+pub struct SphericalTriangle {
     origin: DVec3,
     vertex: [DVec3; 3],
     /// Offsets `v_i − p`.
@@ -141,9 +124,9 @@ struct View {
     omega: f64,
 }
 
-impl View {
+impl SphericalTriangle {
     /// `None` when the solid angle is 0 or not finite.
-    fn new(p: Vec3, v: [Vec3; 3]) -> Option<Self> {
+    pub fn new(p: Vec3, v: [Vec3; 3]) -> Option<Self> {
         let origin = p.as_dvec3();
         let vertex = v.map(Vec3::as_dvec3);
         let offset = vertex.map(|x| x - origin);
@@ -169,6 +152,38 @@ impl View {
             unit_triple,
             triple,
             omega,
+        })
+    }
+
+    /// Ω in steradians, rounded to `f32` (what [`solid_angle`] returns).
+    pub fn solid_angle(&self) -> f32 {
+        self.omega as f32
+    }
+
+    /// `1/Ω` per steradian (what [`spherical_pdf`] returns).
+    pub fn pdf(&self) -> f32 {
+        pdf_from_solid_angle(self.solid_angle())
+    }
+
+    /// The sample of [`sample_spherical_triangle`] for this view.
+    pub fn sample(&self, u: [f32; 2]) -> Option<SphericalSample> {
+        let pdf = self.pdf();
+        if pdf == 0.0 {
+            return None;
+        }
+        let w = self.arvo_direction([f64::from(u[0]), f64::from(u[1])])?;
+        let bary = self.barycentrics(w)?;
+        let [v0, v1, v2] = self.vertex;
+        let point = v0 + bary[1] * (v1 - v0) + bary[2] * (v2 - v0);
+        let offset = point - self.origin;
+        let length = offset.length();
+        if !(length > 0.0 && length.is_finite()) {
+            return None;
+        }
+        Some(SphericalSample {
+            direction: (offset * length.recip()).as_vec3(),
+            point: point.as_vec3(),
+            pdf,
         })
     }
 
@@ -819,7 +834,7 @@ mod tests {
     #[test]
     fn raw_arvo_directions_fall_inside() {
         for (k, case) in cases().iter().enumerate() {
-            let view = View::new(case.p, case.v).unwrap();
+            let view = SphericalTriangle::new(case.p, case.v).unwrap();
             let [d0, d1, d2] = view.offset;
             let mut rng = Pcg32::new(500 + k as u64, 3);
             let mut worst = 0.0f64;

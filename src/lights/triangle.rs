@@ -2,7 +2,7 @@
 
 use glam::Vec3;
 
-use super::spherical_triangle::{sample_spherical_triangle, solid_angle};
+use super::spherical_triangle::SphericalTriangle;
 use super::{emits_toward, luminance};
 use crate::sampling::warp;
 
@@ -63,21 +63,24 @@ impl TriangleLight {
         [self.p0, self.p0 + self.e1, self.p0 + self.e2]
     }
 
-    /// Whether the solid-angle sampler applies at p (Ω within the thresholds).
-    fn spherical_at(&self, p: Vec3, technique: Technique) -> bool {
-        technique == Technique::SolidAngle && {
-            let omega = solid_angle(p, self.vertices());
-            omega > MIN_SPHERICAL_SOLID_ANGLE && omega < MAX_SPHERICAL_SOLID_ANGLE
+    /// The solid-angle view of this triangle from p, when that technique applies there
+    /// (Ω strictly within the thresholds).
+    fn spherical_at(&self, p: Vec3, technique: Technique) -> Option<SphericalTriangle> {
+        if technique != Technique::SolidAngle {
+            return None;
         }
+        let view = SphericalTriangle::new(p, self.vertices())?;
+        let omega = view.solid_angle();
+        (omega > MIN_SPHERICAL_SOLID_ANGLE && omega < MAX_SPHERICAL_SOLID_ANGLE).then_some(view)
     }
 
     /// Draws a point for receiver p; None when the sample carries no light (edge-on).
     #[inline]
     pub fn sample(&self, p: Vec3, technique: Technique, u: [f32; 2]) -> Option<TriangleSample> {
-        if self.spherical_at(p, technique) {
+        if let Some(view) = self.spherical_at(p, technique) {
             // A degenerate spherical sample is dropped rather than redrawn by area, so that
             // pdf_solid_angle always describes the technique that was used.
-            return sample_spherical_triangle(p, self.vertices(), u).map(|s| TriangleSample {
+            return view.sample(u).map(|s| TriangleSample {
                 point: s.point,
                 wi: s.direction,
                 jacobian: 1.0,
@@ -102,8 +105,8 @@ impl TriangleLight {
     /// The solid-angle density with which `sample` (same technique) produces the direction from
     /// p toward `point` on this triangle: 1/Ω, or r²/(A·cosθ') where area sampling applies.
     pub fn pdf_solid_angle(&self, p: Vec3, technique: Technique, point: Vec3) -> f32 {
-        if self.spherical_at(p, technique) {
-            return super::spherical_triangle::spherical_pdf(p, self.vertices());
+        if let Some(view) = self.spherical_at(p, technique) {
+            return view.pdf();
         }
         let d = point - p;
         let dist2 = d.length_squared();
