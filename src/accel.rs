@@ -143,11 +143,16 @@ fn barycentrics(tri: &BvhTriangle, origin: Vec3, dir: Vec3) -> (f32, f32) {
 /// Moves a ray origin on a surface off it along the unit normal `n` (toward the side the ray
 /// leaves from), by a few ULPs of the position's magnitude, so the ray cannot hit the surface it
 /// starts on (Wächter & Binder, "A Fast and Robust Method for Avoiding Self-Intersection",
-/// Ray Tracing Gems, 2019). Scale-independent: works for 1e-4 m and 1e6 m scenes alike.
+/// Ray Tracing Gems, 2019): 256 ULPs per component, and for components below 1/32 (where ULPs
+/// vanish) a fixed-point step of 2^-16 · s, with s = 32·max|p_i| clamped to [2^-10, 1]. Their s = 1
+/// (an absolute 1.5e-5 m) is a sixth of a 1e-4 m scene and lets rays start behind nearby walls;
+/// s scales it with the point's own magnitude, down to 1.5e-8 m, still 128 ULPs of the 1e-3 m
+/// guard (`NODE_CULL_GUARD`) the ray is started behind. Works for 1e-4 m and 1e6 m scenes alike.
 #[inline]
 pub fn offset_ray_origin(p: Vec3, n: Vec3) -> Vec3 {
     const ORIGIN: f32 = 1.0 / 32.0;
     const FLOAT_SCALE: f32 = 1.0 / 65536.0;
+    const MIN_SCALE: f32 = 1.0 / 1024.0;
     const INT_SCALE: f32 = 256.0;
     let offset_int = (INT_SCALE * n).as_ivec3();
     let nudge = |x: f32, o: i32| {
@@ -159,9 +164,10 @@ pub fn offset_ray_origin(p: Vec3, n: Vec3) -> Vec3 {
         nudge(p.y, offset_int.y),
         nudge(p.z, offset_int.z),
     );
+    let step = FLOAT_SCALE * (p.abs().max_element() / ORIGIN).clamp(MIN_SCALE, 1.0);
     let pick = |x: f32, xi: f32, nx: f32| {
         if x.abs() < ORIGIN {
-            x + FLOAT_SCALE * nx
+            x + step * nx
         } else {
             xi
         }

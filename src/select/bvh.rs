@@ -22,7 +22,8 @@ pub struct BvhSelector {
 /// Light bounds for the tree: a triangle is a box with a normal cone of angle 0 (θe = 90°);
 /// a point light emits in every direction; a spot light within its outer cone.
 fn bounds_of(light: &Light) -> Option<LightBounds> {
-    let phi = light.power() as f32;
+    // Φ beyond f32 (π·A·L > 3.4e38) is clamped: an infinite Φ would leave the light out.
+    let phi = (light.power() as f32).min(f32::MAX);
     match light {
         Light::Triangle(t) => {
             let (p1, p2) = (t.p0 + t.e1, t.p0 + t.e2);
