@@ -263,5 +263,11 @@ fn print_summary(s: &RenderSummary) {
         "nan/inf   {} NaN, {} Inf samples (left out of the image)",
         s.stats.nan_samples, s.stats.inf_samples
     );
+    println!(
+        "fireflies {} samples above {}× their pixel's mean; largest sample luminance {:.4e}",
+        s.stats.fireflies,
+        crate::integrator::FIREFLY_FACTOR,
+        s.stats.max_sample_luminance
+    );
     println!("wrote     {}", s.output.display());
 }

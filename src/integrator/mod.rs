@@ -6,7 +6,7 @@ mod tiles;
 
 pub use estimator::{power_heuristic, Estimator, SampleCounts};
 pub use prepared::PreparedScene;
-pub use tiles::{render, RenderOptions, RenderStats};
+pub use tiles::{render, RenderOptions, RenderStats, FIREFLY_FACTOR};
 
 /// How the reflected part of direct lighting is estimated at the first hit.
 #[derive(

@@ -6,6 +6,7 @@ use rayon::prelude::*;
 
 use super::estimator::{Estimator, SampleCounts};
 use crate::film::{classify, Film, PixelStats, SampleClass};
+use crate::lights::luminance;
 use crate::sampling::rng::PixelRng;
 use crate::scene::Camera;
 
@@ -22,8 +23,12 @@ pub struct RenderOptions {
     pub clamp: Option<f32>,
 }
 
+/// A camera sample is a firefly when its luminance exceeds this multiple of its pixel's mean
+/// luminance over the render.
+pub const FIREFLY_FACTOR: f64 = 100.0;
+
 /// What a render did, summed over all pixels.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct RenderStats {
     pub camera_samples: u64,
     pub rays: SampleCounts,
@@ -31,6 +36,12 @@ pub struct RenderStats {
     pub nan_samples: u64,
     /// Samples with an infinite component, left out of the image.
     pub inf_samples: u64,
+    /// Finite camera samples whose luminance exceeds `FIREFLY_FACTOR` × their pixel's mean
+    /// luminance (before `--clamp`).
+    pub fireflies: u64,
+    /// The largest luminance of one finite camera sample (before `--clamp`): the largest
+    /// estimator weight f·Le·G / (K·N·p_l·p(x')) the render met, in luminance.
+    pub max_sample_luminance: f64,
 }
 
 impl RenderStats {
@@ -39,6 +50,8 @@ impl RenderStats {
         self.rays.add(&o.rays);
         self.nan_samples += o.nan_samples;
         self.inf_samples += o.inf_samples;
+        self.fireflies += o.fireflies;
+        self.max_sample_luminance = self.max_sample_luminance.max(o.max_sample_luminance);
     }
 }
 
@@ -82,8 +95,11 @@ fn render_tile(
     let (w, h) = (opts.width, opts.height);
     let mut pixels = Vec::with_capacity((TILE * TILE) as usize);
     let mut stats = RenderStats::default();
+    // The current pixel's sample luminances, for counting fireflies once its mean is known.
+    let mut luminances: Vec<f32> = Vec::with_capacity(opts.spp as usize);
     for y in ty * TILE..((ty + 1) * TILE).min(h) {
         for x in tx * TILE..((tx + 1) * TILE).min(w) {
+            luminances.clear();
             let mut rng = PixelRng::new(opts.seed, y as u64 * w as u64 + x as u64);
             let mut pixel = PixelStats::default();
             for _ in 0..opts.spp {
@@ -93,6 +109,7 @@ fn render_tile(
                 stats.camera_samples += 1;
                 match classify(l) {
                     SampleClass::Finite => {
+                        luminances.push(luminance(l));
                         let l = opts.clamp.map_or(l, |c| l.min(Vec3::splat(c)));
                         pixel.add(l.as_dvec3())
                     }
@@ -100,8 +117,26 @@ fn render_tile(
                     SampleClass::Infinite => stats.inf_samples += 1,
                 }
             }
+            count_fireflies(&luminances, &mut stats);
             pixels.push(pixel);
         }
     }
     (pixels, stats)
+}
+
+/// Adds one pixel's fireflies (luminance > FIREFLY_FACTOR × the pixel's mean, f64) and its
+/// largest sample luminance to `stats`.
+fn count_fireflies(luminances: &[f32], stats: &mut RenderStats) {
+    if luminances.is_empty() {
+        return;
+    }
+    let mean = luminances.iter().map(|&l| l as f64).sum::<f64>() / luminances.len() as f64;
+    let threshold = FIREFLY_FACTOR * mean;
+    for &l in luminances {
+        let l = l as f64;
+        stats.max_sample_luminance = stats.max_sample_luminance.max(l);
+        if mean > 0.0 && l > threshold {
+            stats.fireflies += 1;
+        }
+    }
 }
