@@ -125,7 +125,8 @@ pub fn city(lights: usize, seed: u64) -> GltfBuilder {
     for building in &buildings {
         blocks[below(&mut rng, 3)].cuboid(building.min, building.max);
     }
-    for (shade, (mesh, grey)) in blocks.iter().zip([0.25, 0.4, 0.55]).enumerate() {
+    let shades = blocks.iter().zip([0.25, 0.4, 0.55]).enumerate();
+    for (shade, (mesh, grey)) in shades.filter(|(_, (m, _))| !m.positions.is_empty()) {
         let name = format!("buildings {shade}");
         let concrete = b.add_material(matte(&name, [grey; 3]));
         add_object(&mut b, &name, mesh, concrete, NodeTransform::Identity);
