@@ -63,7 +63,10 @@ fn assert_deterministic(name: SceneName, lights: Option<usize>, seeded: bool) ->
 
 /// Distinct emitted radiances (red channel) of the scene's emissive materials.
 fn radiance_range(scene: &Scene) -> (f32, f32) {
-    let used = scene.triangles.iter().map(|t| &scene.materials[t.material as usize]);
+    let used = scene
+        .triangles
+        .iter()
+        .map(|t| &scene.materials[t.material as usize]);
     used.filter(|m| m.is_emissive())
         .map(|m| m.emission.max_element())
         .fold((f32::INFINITY, 0.0), |(lo, hi), l| (lo.min(l), hi.max(l)))
@@ -78,7 +81,10 @@ fn cornell_split_has_the_requested_lights_and_the_box_unchanged() {
         let (tris, lights, two_sided, materials) = counts(&scene);
         assert_eq!((tris, lights, two_sided), (34 + n, n, 0), "n = {n}");
         // The four room materials plus one per radiance level in use (at most 16).
-        assert!((5..=4 + 16.min(n)).contains(&materials), "n = {n}: {materials}");
+        assert!(
+            (5..=4 + 16.min(n)).contains(&materials),
+            "n = {n}: {materials}"
+        );
         // The pieces tile the 0.5 × 0.4 m light exactly.
         let area: f64 = scene
             .triangles
@@ -93,11 +99,15 @@ fn cornell_split_has_the_requested_lights_and_the_box_unchanged() {
 }
 
 trait MaterialOf {
-    fn material_of_triangle(&self, t: &manylights::scene::Triangle) -> &manylights::scene::Material;
+    fn material_of_triangle(&self, t: &manylights::scene::Triangle)
+        -> &manylights::scene::Material;
 }
 
 impl MaterialOf for Scene {
-    fn material_of_triangle(&self, t: &manylights::scene::Triangle) -> &manylights::scene::Material {
+    fn material_of_triangle(
+        &self,
+        t: &manylights::scene::Triangle,
+    ) -> &manylights::scene::Material {
         &self.materials[t.material as usize]
     }
 }
@@ -111,12 +121,23 @@ fn city_has_exactly_the_requested_lights_over_six_decades() {
         let neon = quads * 8 / 100;
         let windows = quads - quads * 2 / 100 - neon;
         assert_eq!(emissive, lights);
-        assert_eq!(two_sided, 2 * neon + lights % 2, "neon strips are two-sided");
+        assert_eq!(
+            two_sided,
+            2 * neon + lights % 2,
+            "neon strips are two-sided"
+        );
         // Ground (2), 12 per building on a square grid, the lights, and one dark window per lit one.
         let buildings = (tris - 2 - lights - 2 * windows) / 12;
         let side = (buildings as f64).sqrt().round() as usize;
-        assert_eq!(2 + 12 * side * side + lights + 2 * windows, tris, "{lights}");
-        assert!(materials <= 5 + 3 * 21 + 2 * 9 + 3 * 13, "{materials} materials");
+        assert_eq!(
+            2 + 12 * side * side + lights + 2 * windows,
+            tris,
+            "{lights}"
+        );
+        assert!(
+            materials <= 5 + 3 * 21 + 2 * 9 + 3 * 13,
+            "{materials} materials"
+        );
         if lights >= 999 {
             let (lo, hi) = radiance_range(&scene);
             assert!(hi / lo >= 1e6, "radiance {lo} .. {hi}");
@@ -148,8 +169,14 @@ fn extremes_has_its_fixed_cases() {
         .iter()
         .filter(|t| scene.material_of_triangle(t).is_emissive())
         .collect();
-    let smallest = lights.iter().map(|t| t.area()).fold(f32::INFINITY, f32::min);
-    assert!((smallest / 1e-10 - 1.0).abs() < 1e-3, "tiny light area {smallest}");
+    let smallest = lights
+        .iter()
+        .map(|t| t.area())
+        .fold(f32::INFINITY, f32::min);
+    assert!(
+        (smallest / 1e-10 - 1.0).abs() < 1e-3,
+        "tiny light area {smallest}"
+    );
     let largest = lights.iter().map(|t| t.area()).fold(0.0, f32::max);
     assert!(largest >= 1e6, "far light area {largest}");
     let lowest_above_floor = lights
@@ -190,8 +217,14 @@ fn textured_writes_a_mostly_dark_emissive_texture() {
         let mut texels = vec![0; reader.output_buffer_size().unwrap()];
         let info = reader.next_frame(&mut texels).unwrap();
         assert_eq!((info.width, info.height), (64, 64));
-        let black = texels.chunks(3).filter(|t| t.iter().all(|&c| c == 0)).count();
-        assert!(black > 64 * 64 * 9 / 10 && black < 64 * 64, "{black} black texels");
+        let black = texels
+            .chunks(3)
+            .filter(|t| t.iter().all(|&c| c == 0))
+            .count();
+        assert!(
+            black > 64 * 64 * 9 / 10 && black < 64 * 64,
+            "{black} black texels"
+        );
         let mesh = gltf.document.meshes().find(|m| {
             m.primitives()
                 .any(|p| p.material().index() == Some(panel.index().unwrap()))
@@ -205,11 +238,10 @@ fn textured_writes_a_mostly_dark_emissive_texture() {
             .collect();
         assert_eq!(uvs.len(), (n + 1) * (n + 1));
         assert!(uvs.iter().flatten().all(|&c| (0.0..=1.0).contains(&c)));
-        let floor = gltf.document.materials().find(|m| {
-            m.pbr_metallic_roughness()
-                .base_color_texture()
-                .is_some()
-        });
+        let floor = gltf
+            .document
+            .materials()
+            .find(|m| m.pbr_metallic_roughness().base_color_texture().is_some());
         assert!(floor.is_some(), "a base colour texture on the floor");
     }
 }
@@ -240,8 +272,14 @@ fn gen_refuses_bad_arguments_with_a_usage_error() {
     let cases: [(&[&str], &str); 7] = [
         (&["gen", "nowhere", "-o", out_s], "nowhere"),
         (&["gen", "city", "-o", out_s, "--lights", "0"], "0"),
-        (&["gen", "city", "-o", out_s, "--lights", "2000001"], "2000001"),
-        (&["gen", "grid", "-o", out_s, "--lights", "100"], "98 or 128"),
+        (
+            &["gen", "city", "-o", out_s, "--lights", "2000001"],
+            "2000001",
+        ),
+        (
+            &["gen", "grid", "-o", out_s, "--lights", "100"],
+            "98 or 128",
+        ),
         (&["gen", "textured", "-o", out_s, "--lights", "7"], "2·n²"),
         (&["gen", "extremes", "-o", out_s, "--lights", "8"], "fixed"),
         (&["gen", "cornell", "-o", out_s, "--lights", "1"], "≥ 2"),
@@ -254,21 +292,38 @@ fn gen_refuses_bad_arguments_with_a_usage_error() {
         assert!(!out.exists());
     }
     let missing = dir.path().join("no-such-folder").join("x.glb");
-    let o = manylights(&["gen", "grid", "-o", missing.to_str().unwrap(), "--lights", "8"]);
+    let o = manylights(&[
+        "gen",
+        "grid",
+        "-o",
+        missing.to_str().unwrap(),
+        "--lights",
+        "8",
+    ]);
     assert_eq!(o.status.code(), Some(EXIT_FAILURE));
     assert!(String::from_utf8_lossy(&o.stderr).contains("no-such-folder"));
-    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0, "no partial file");
+    assert_eq!(
+        std::fs::read_dir(dir.path()).unwrap().count(),
+        0,
+        "no partial file"
+    );
 }
 
 /// Every committed scene with the `gen` arguments that rebuild it (as scenes/README.md says).
 const COMMITTED: [(&str, &[&str]); 7] = [
     ("cornell.glb", &["cornell"]),
-    ("cornell64.glb", &["cornell", "--lights", "64", "--seed", "1"]),
+    (
+        "cornell64.glb",
+        &["cornell", "--lights", "64", "--seed", "1"],
+    ),
     ("town.glb", &["town", "--lights", "12000", "--seed", "1"]),
     ("city.glb", &["city", "--lights", "20000", "--seed", "1"]),
     ("grid.glb", &["grid", "--lights", "2048"]),
     ("extremes.glb", &["extremes"]),
-    ("textured.glb", &["textured", "--lights", "512", "--seed", "1"]),
+    (
+        "textured.glb",
+        &["textured", "--lights", "512", "--seed", "1"],
+    ),
 ];
 
 #[test]
@@ -286,7 +341,10 @@ fn committed_scenes_are_what_gen_writes() {
         cmd.extend_from_slice(&args[1..]);
         assert!(manylights(&cmd).status.success(), "{file}");
         let want = std::fs::read(repo("scenes").join(file)).unwrap();
-        assert!(std::fs::read(&out).unwrap() == want, "scenes/{file} differs from gen {args:?}");
+        assert!(
+            std::fs::read(&out).unwrap() == want,
+            "scenes/{file} differs from gen {args:?}"
+        );
     }
 }
 
@@ -309,7 +367,11 @@ fn committed_scenes_render_without_nan_or_inf() {
                 clamp: None,
             };
             let (film, stats) = render(&estimator, &camera, &opts);
-            assert_eq!(stats.nan_samples + stats.inf_samples, 0, "{file} {selector:?}");
+            assert_eq!(
+                stats.nan_samples + stats.inf_samples,
+                0,
+                "{file} {selector:?}"
+            );
             assert_eq!(stats.camera_samples, 24 * 16 * 4);
             let mean: f64 = film.pixels.iter().map(|p| p.mean.x).sum::<f64>();
             assert!(mean.is_finite() && mean > 0.0, "{file}: image sum {mean}");
@@ -373,7 +435,12 @@ fn probe_expected(scene: &Scene, probe: &Probe) -> f64 {
 }
 
 /// Mean and standard error of the radiance the estimator returns along approach → point.
-fn probe_estimate(prepared: &PreparedScene, strategy: Strategy, probe: &Probe, seed: u64) -> (f64, f64) {
+fn probe_estimate(
+    prepared: &PreparedScene,
+    strategy: Strategy,
+    probe: &Probe,
+    seed: u64,
+) -> (f64, f64) {
     const SAMPLES: u64 = 1 << 16;
     let estimator = prepared.estimator(strategy, 1, 1);
     let origin = Vec3::from(probe.approach);
@@ -422,7 +489,11 @@ fn extremes_probes_match_lambert() {
                 "{} ({strategy:?}): {mean} ± {sigma}, Lambert gives {expected}",
                 probe.name
             );
-            assert!(sigma > 0.0 || expected == 0.0, "{}: no variance", probe.name);
+            assert!(
+                sigma > 0.0 || expected == 0.0,
+                "{}: no variance",
+                probe.name
+            );
         }
     }
 }
@@ -435,10 +506,17 @@ fn extremes_closed_forms_are_the_limits_they_claim() {
     let rho_over_pi = RECEIVER_ALBEDO as f64 / std::f64::consts::PI;
     let near = PROBES.iter().find(|p| p.name.contains("1e-4")).unwrap();
     let e = probe_expected(&scene, near) / rho_over_pi;
-    assert!(e < std::f64::consts::PI && e > 0.999 * std::f64::consts::PI, "{e}");
+    assert!(
+        e < std::f64::consts::PI && e > 0.999 * std::f64::consts::PI,
+        "{e}"
+    );
     let behind = PROBES.iter().find(|p| p.name.contains("behind")).unwrap();
     assert_eq!(probe_expected(&scene, behind), 0.0);
     let x = DVec3::new(-1.0, 0.0, 0.0);
-    let in_plane = [DVec3::ZERO, DVec3::new(1.0, 0.0, 0.0), DVec3::new(0.0, 0.0, 1.0)];
+    let in_plane = [
+        DVec3::ZERO,
+        DVec3::new(1.0, 0.0, 0.0),
+        DVec3::new(0.0, 0.0, 1.0),
+    ];
     assert_eq!(clipped_lambert(x, DVec3::Y, &in_plane, 1.0), 0.0);
 }
