@@ -938,6 +938,9 @@ pub(crate) mod tests {
             assert_eq!(normals, want.normals);
             let indices: Option<Vec<u32>> = reader.read_indices().map(|i| i.into_u32().collect());
             assert_eq!(indices, want.indices);
+            let uvs: Option<Vec<[f32; 2]>> =
+                reader.read_tex_coords(0).map(|t| t.into_f32().collect());
+            assert_eq!(uvs, want.uvs);
         }
         for (mat, want) in doc.materials().zip(&builder.materials) {
             assert_eq!(mat.name(), Some(want.name.as_str()));
@@ -1046,6 +1049,45 @@ pub(crate) mod tests {
             doc["materials"][0]["pbrMetallicRoughness"]["baseColorFactor"],
             json!([1.0, 1.0, 1.0, 1.0])
         );
+    }
+
+    #[test]
+    fn textures_uvs_and_specular_round_trip() {
+        // The 8-byte PNG signature is all the builder checks; the bytes are stored verbatim.
+        let png = b"\x89PNG\r\n\x1a\nnot really an image".to_vec();
+        let mut b = GltfBuilder::new();
+        let glow = b.add_png_texture("glow", png.clone(), TextureSampling::NearestClamp);
+        let tiles = b.add_png_texture("tiles", png.clone(), TextureSampling::LinearRepeat);
+        let m = b.add_material(Material {
+            name: "textured".into(),
+            emissive: [1.0; 3],
+            emissive_texture: Some(glow),
+            base_color_texture: Some(tiles),
+            specular: 0.0,
+            ..Material::default()
+        });
+        let tri = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+        let uv = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]];
+        let mesh = b.add_mesh_with_uvs("tri", &tri, None, Some(&uv), None, m);
+        b.add_node("tri", Some(mesh), None, NodeTransform::Identity);
+        for ext in ["glb", "gltf"] {
+            let (doc, blob) = round_trip(&b, ext);
+            assert_matches(&b, &doc, &blob);
+            let mat = doc.materials().next().unwrap();
+            assert_eq!(mat.specular().map(|s| s.specular_factor()), Some(0.0));
+            let emissive = mat.emissive_texture().unwrap().texture();
+            let base = mat.pbr_metallic_roughness().base_color_texture().unwrap();
+            assert_eq!((emissive.index(), base.texture().index()), (0, 1));
+            let filter = emissive.sampler().mag_filter();
+            assert_eq!(filter, Some(gltf::texture::MagFilter::Nearest));
+            let wrap = base.texture().sampler().wrap_s();
+            assert_eq!(wrap, gltf::texture::WrappingMode::Repeat);
+            let gltf::image::Source::View { view, mime_type } = emissive.source().source() else {
+                panic!("image not in a buffer view");
+            };
+            assert_eq!(mime_type, "image/png");
+            assert_eq!(&blob[view.offset()..view.offset() + view.length()], png);
+        }
     }
 
     #[test]
