@@ -12,7 +12,7 @@ use manylights::integrator::{render, PreparedScene, RenderOptions, SampleCounts,
 use manylights::lights::Lights;
 use manylights::sampling::rng::PixelRng;
 use manylights::scene::generate::extremes::{Probe, PROBES, RECEIVER_ALBEDO};
-use manylights::scene::{load_gltf, load_gltf_bytes, CameraChoice, Scene};
+use manylights::scene::{load_gltf, load_gltf_bytes, CameraChoice, Scene, Triangle};
 use manylights::select::SelectorKind;
 
 const EXIT_FAILURE: i32 = 1;
@@ -72,6 +72,12 @@ fn radiance_range(scene: &Scene) -> (f32, f32) {
         .fold((f32::INFINITY, 0.0), |(lo, hi), l| (lo.min(l), hi.max(l)))
 }
 
+/// The scene's emissive triangles.
+fn emitters(scene: &Scene) -> Vec<&Triangle> {
+    let emissive = |t: &&Triangle| scene.materials[t.material as usize].is_emissive();
+    scene.triangles.iter().filter(emissive).collect()
+}
+
 #[test]
 fn cornell_split_has_the_requested_lights_and_the_box_unchanged() {
     let classic = counts(&load(&glb(SceneName::Cornell, None, 1)));
@@ -86,29 +92,10 @@ fn cornell_split_has_the_requested_lights_and_the_box_unchanged() {
             "n = {n}: {materials}"
         );
         // The pieces tile the 0.5 × 0.4 m light exactly.
-        let area: f64 = scene
-            .triangles
-            .iter()
-            .filter(|t| scene.material_of_triangle(t).is_emissive())
-            .map(|t| t.area() as f64)
-            .sum();
+        let area: f64 = emitters(&scene).iter().map(|t| t.area() as f64).sum();
         assert!((area - 0.2).abs() < 1e-6, "n = {n}: area {area}");
         let (lo, hi) = radiance_range(&scene);
         assert!(lo >= 1.5 * 0.999 && hi <= 150.0 * 1.001, "{lo} .. {hi}");
-    }
-}
-
-trait MaterialOf {
-    fn material_of_triangle(&self, t: &manylights::scene::Triangle)
-        -> &manylights::scene::Material;
-}
-
-impl MaterialOf for Scene {
-    fn material_of_triangle(
-        &self,
-        t: &manylights::scene::Triangle,
-    ) -> &manylights::scene::Material {
-        &self.materials[t.material as usize]
     }
 }
 
@@ -164,11 +151,7 @@ fn extremes_has_its_fixed_cases() {
     assert_eq!(counts(&scene), (79, 17, 2, 11));
     let (lo, hi) = radiance_range(&scene);
     assert_eq!((lo, hi), (1e-8, 1e8));
-    let lights: Vec<_> = scene
-        .triangles
-        .iter()
-        .filter(|t| scene.material_of_triangle(t).is_emissive())
-        .collect();
+    let lights = emitters(&scene);
     let smallest = lights
         .iter()
         .map(|t| t.area())
@@ -422,7 +405,8 @@ fn probe_expected(scene: &Scene, probe: &Probe) -> f64 {
     for t in &scene.triangles {
         let m = &scene.materials[t.material as usize];
         let centroid = (t.positions[0] + t.positions[1] + t.positions[2]) / 3.0;
-        if !m.is_emissive() || !(centroid.cmpge(lo).all() && centroid.cmple(hi).all()) {
+        let inside = centroid.cmpge(lo).all() && centroid.cmple(hi).all();
+        if !(m.is_emissive() && inside) {
             continue;
         }
         let front = t.geometric_normal().as_dvec3().dot(x - centroid.as_dvec3()) > 0.0;
