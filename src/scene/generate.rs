@@ -1,9 +1,23 @@
 //! Procedural test scenes built with [`GltfBuilder`].
 //!
-//! * [`cornell`]: a Cornell-like box lit by one small one-sided area light.
+//! * [`cornell`]: a Cornell-like box lit by one small one-sided area light;
+//!   [`cornell_split`] cuts that light into many triangles of varied radiance.
 //! * [`many_lights`]: a night town with thousands of small emissive quads
 //!   (windows, street lamps, floating neon strips) hidden behind buildings,
 //!   for benchmarking light selection.
+//! * [`city`], [`grid`], [`extremes`], [`textured`]: one file each, see there.
+//!
+//! Every generator is a pure function of its arguments: same arguments, same bytes.
+
+mod city;
+pub mod extremes;
+mod grid;
+mod textured;
+
+pub use city::{city, CITY_MAX_LIGHTS};
+pub use extremes::extremes;
+pub use grid::{grid, grid_side};
+pub use textured::{textured, textured_side};
 
 use std::collections::BTreeMap;
 
@@ -18,6 +32,24 @@ use super::gltf_write::{look_at_rotation, GltfBuilder, Material, NodeTransform};
 /// the camera stands, two rotated boxes, and one downward-facing emissive
 /// quad just below the ceiling.
 pub fn cornell() -> GltfBuilder {
+    cornell_with(None)
+}
+
+/// The Cornell box of [`cornell`] with its ceiling light cut into exactly
+/// `triangles` (≥ 2) triangles, each with its own radiance: 15 × [1, 0.85, 0.6]
+/// times a factor drawn log-uniformly from 0.1 to 10 (over [`SPLIT_LEVELS`]
+/// shared materials). The rest of the scene is byte for byte that of [`cornell`].
+pub fn cornell_split(triangles: usize, seed: u64) -> GltfBuilder {
+    assert!(triangles >= 2, "the split light needs at least 2 triangles");
+    cornell_with(Some((triangles, seed)))
+}
+
+/// Number of radiance levels of [`cornell_split`]'s light.
+pub const SPLIT_LEVELS: usize = 16;
+
+/// The box with a single ceiling quad (`None`) or with the quad cut into
+/// `(triangles, seed)`.
+fn cornell_with(split: Option<(usize, u64)>) -> GltfBuilder {
     let mut b = GltfBuilder::new();
     let white = b.add_material(matte("white", [0.73; 3]));
     let red = b.add_material(matte("red", [0.63, 0.065, 0.05]));
@@ -26,11 +58,11 @@ pub fn cornell() -> GltfBuilder {
         roughness: 0.3,
         ..matte("glossy white", [0.73; 3])
     });
-    let lamp = b.add_material(Material {
+    let lamp_material = |name: String, strength: f32| Material {
         emissive: [1.0, 0.85, 0.6],
-        emissive_strength: 15.0,
-        ..matte("ceiling light", [0.78; 3])
-    });
+        emissive_strength: strength,
+        ..matte(&name, [0.78; 3])
+    };
 
     let mut walls = QuadMesh::default();
     walls.quad(Vec3::ZERO, Vec3::Z, Vec3::X); // floor, faces +y
@@ -57,16 +89,37 @@ pub fn cornell() -> GltfBuilder {
     b.add_child(boxes, tall);
 
     // The light is modelled at the origin and lifted by a matrix transform.
-    let mut light = QuadMesh::default();
-    light.quad(Vec3::ZERO, Vec3::X * 0.25, Vec3::Z * 0.2); // 0.5 × 0.4 m, faces −y
-    let lift = Mat4::from_translation(Vec3::new(0.0, 1.999, 0.0));
-    add_object(
-        &mut b,
-        "ceiling light",
-        &light,
-        lamp,
-        NodeTransform::Matrix(lift.to_cols_array()),
-    );
+    let lift =
+        NodeTransform::Matrix(Mat4::from_translation(Vec3::new(0.0, 1.999, 0.0)).to_cols_array());
+    let (half_x, half_z) = (0.25, 0.2); // 0.5 × 0.4 m, faces −y
+    match split {
+        None => {
+            // Added here, it is still material 4 (materials are numbered in order of addition).
+            let lamp = b.add_material(lamp_material("ceiling light".into(), 15.0));
+            let mut light = QuadMesh::default();
+            light.quad(Vec3::ZERO, Vec3::X * half_x, Vec3::Z * half_z);
+            add_object(&mut b, "ceiling light", &light, lamp, lift);
+        }
+        Some((triangles, seed)) => {
+            let mut rng = Pcg32::seed_from_u64(seed);
+            let mut levels: BTreeMap<usize, QuadMesh> = BTreeMap::new();
+            for tri in split_rectangle(half_x, half_z, triangles) {
+                levels
+                    .entry(below(&mut rng, SPLIT_LEVELS))
+                    .or_default()
+                    .triangle(tri);
+            }
+            let parent = b.add_node("ceiling light", None, None, lift);
+            for (level, mesh) in &levels {
+                let factor = 10f32.powf(-1.0 + 2.0 * *level as f32 / (SPLIT_LEVELS - 1) as f32);
+                let name = format!("ceiling light L{level:02}");
+                let m = b.add_material(lamp_material(name.clone(), 15.0 * factor));
+                let mesh_index = b.add_mesh(&name, &mesh.positions, None, None, m);
+                let node = b.add_node(&name, Some(mesh_index), None, NodeTransform::Identity);
+                b.add_child(parent, node);
+            }
+        }
+    }
 
     add_camera(&mut b, [0.0, 1.0, 3.4], [0.0, 1.0, 0.0], 40.0);
     b
@@ -91,6 +144,46 @@ pub fn many_lights(seed: u64, target_lights: usize) -> GltfBuilder {
 
     add_camera(&mut b, [0.8, 8.0, 29.5], [-1.0, 4.0, 0.0], 60.0);
     b
+}
+
+/// Cuts the rectangle [−hx, hx] × [−hz, hz] in the y = 0 plane into exactly
+/// `count` (≥ 2) triangles facing −y: rows along z, each row a zigzag strip
+/// between its two edges, cut at evenly spaced points.
+fn split_rectangle(hx: f32, hz: f32, count: usize) -> Vec<[Vec3; 3]> {
+    let rows = ((count as f32 * hz / (2.0 * hx)).sqrt().round() as usize).clamp(1, count / 2);
+    let mut out = Vec::with_capacity(count);
+    for r in 0..rows {
+        let in_row = count * (r + 1) / rows - count * r / rows;
+        let z0 = -hz + 2.0 * hz * r as f32 / rows as f32;
+        let z1 = -hz + 2.0 * hz * (r + 1) as f32 / rows as f32;
+        let (bottom, top) = (in_row.div_ceil(2), in_row / 2);
+        let at =
+            |k: usize, of: usize, z: f32| Vec3::new(-hx + 2.0 * hx * k as f32 / of as f32, 0.0, z);
+        let (mut i, mut j) = (0, 0);
+        while i < bottom || j < top {
+            let advance_bottom = j == top
+                || (i < bottom && (i + 1) as f32 / bottom as f32 <= (j + 1) as f32 / top as f32);
+            let tri = if advance_bottom {
+                i += 1;
+                [at(i - 1, bottom, z0), at(i, bottom, z0), at(j, top, z1)]
+            } else {
+                j += 1;
+                [at(i, bottom, z0), at(j, top, z1), at(j - 1, top, z1)]
+            };
+            out.push(facing(tri, Vec3::NEG_Y));
+        }
+    }
+    out
+}
+
+/// The triangle, its last two corners swapped if needed so that its
+/// counter-clockwise front face looks along `normal`.
+fn facing([a, b, c]: [Vec3; 3], normal: Vec3) -> [Vec3; 3] {
+    if (b - a).cross(c - a).dot(normal) >= 0.0 {
+        [a, b, c]
+    } else {
+        [a, c, b]
+    }
 }
 
 /// A one-sided rough dielectric of the given colour.
@@ -144,7 +237,19 @@ fn add_object(
 
 /// Adds a square-aspect perspective camera at `eye` looking at `target`.
 fn add_camera(b: &mut GltfBuilder, eye: [f32; 3], target: [f32; 3], yfov_degrees: f32) {
-    let camera = b.add_perspective_camera("camera", yfov_degrees.to_radians(), Some(1.0), 0.01);
+    add_camera_with_aspect(b, eye, target, yfov_degrees, 1.0);
+}
+
+/// Adds a perspective camera of aspect ratio `aspect` (width / height) at
+/// `eye` looking at `target`.
+fn add_camera_with_aspect(
+    b: &mut GltfBuilder,
+    eye: [f32; 3],
+    target: [f32; 3],
+    yfov_degrees: f32,
+    aspect: f32,
+) {
+    let camera = b.add_perspective_camera("camera", yfov_degrees.to_radians(), Some(aspect), 0.01);
     let transform = NodeTransform::Trs {
         translation: eye,
         rotation: look_at_rotation(eye, target, [0.0, 1.0, 0.0]),
@@ -174,6 +279,17 @@ impl QuadMesh {
         self.indices.extend([0, 1, 2, 0, 2, 3].map(|k| base + k));
     }
 
+    /// Adds one triangle (front face by its winding) as three new vertices.
+    fn triangle(&mut self, corners: [Vec3; 3]) {
+        let base = u32::try_from(self.positions.len()).expect("mesh too large");
+        let n = geometric_normal_of(corners).to_array();
+        for p in corners {
+            self.positions.push(p.to_array());
+            self.normals.push(n);
+        }
+        self.indices.extend([base, base + 1, base + 2]);
+    }
+
     /// Adds an axis-aligned closed box with outward-facing quads.
     fn cuboid(&mut self, min: Vec3, max: Vec3) {
         let centre = (min + max) * 0.5;
@@ -194,6 +310,11 @@ impl QuadMesh {
             .map(|&i| self.positions[i as usize])
             .collect()
     }
+}
+
+/// The unit normal of the counter-clockwise front face.
+fn geometric_normal_of([a, b, c]: [Vec3; 3]) -> Vec3 {
+    (b - a).cross(c - a).normalize()
 }
 
 /// Uniform `f32` in [0, 1) from the top 24 bits of a `u32`.

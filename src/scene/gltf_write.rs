@@ -1,9 +1,10 @@
 //! A minimal, deterministic glTF 2.0 writer.
 //!
-//! [`GltfBuilder`] collects materials, triangle meshes, perspective cameras
-//! and a node hierarchy, and writes them either as one binary `.glb` file or
-//! as a `.gltf` JSON file whose single buffer is embedded as a base64 data
-//! URI. The same inputs always produce the same bytes.
+//! [`GltfBuilder`] collects materials, PNG textures, triangle meshes,
+//! perspective cameras and a node hierarchy, and writes them either as one
+//! binary `.glb` file or as a `.gltf` JSON file whose single buffer is
+//! embedded as a base64 data URI (images live in that buffer too, behind
+//! buffer views). The same inputs always produce the same bytes.
 
 use std::fs;
 use std::io::Write;
@@ -15,6 +16,8 @@ use serde_json::{json, Map, Value};
 
 /// Name of the extension used for emissive strengths other than 1.
 const EMISSIVE_STRENGTH_EXT: &str = "KHR_materials_emissive_strength";
+/// Name of the extension used for specular factors other than 1.
+const SPECULAR_EXT: &str = "KHR_materials_specular";
 
 /// glTF component type and buffer-view target codes.
 const FLOAT: u32 = 5126;
@@ -23,6 +26,11 @@ const UNSIGNED_INT: u32 = 5125;
 const ARRAY_BUFFER: u32 = 34962;
 const ELEMENT_ARRAY_BUFFER: u32 = 34963;
 const MODE_TRIANGLES: u32 = 4;
+/// Sampler filter and wrap codes.
+const NEAREST: u32 = 9728;
+const LINEAR: u32 = 9729;
+const CLAMP_TO_EDGE: u32 = 33071;
+const REPEAT: u32 = 10497;
 
 /// GLB container constants.
 const GLB_MAGIC: u32 = 0x4654_6C67;
@@ -48,6 +56,13 @@ pub struct Material {
     pub emissive_strength: f32,
     /// Whether both sides of each triangle are rendered (and emit).
     pub double_sided: bool,
+    /// `KHR_materials_specular` `specularFactor` in [0, 1] (0 leaves a pure
+    /// Lambertian surface); written only when it is not 1.
+    pub specular: f32,
+    /// `emissiveTexture` (a texture index, sRGB, multiplied by `emissive`).
+    pub emissive_texture: Option<usize>,
+    /// `baseColorTexture` (a texture index, sRGB, multiplied by `base_color`).
+    pub base_color_texture: Option<usize>,
 }
 
 impl Default for Material {
@@ -61,8 +76,20 @@ impl Default for Material {
             emissive: [0.0; 3],
             emissive_strength: 1.0,
             double_sided: false,
+            specular: 1.0,
+            emissive_texture: None,
+            base_color_texture: None,
         }
     }
+}
+
+/// How a texture is sampled: filtering and wrapping on both axes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TextureSampling {
+    /// Nearest texel, coordinates clamped to the edge (exact texel footprints).
+    NearestClamp,
+    /// Bilinear, repeating (tiled patterns).
+    LinearRepeat,
 }
 
 /// The local transform of a node.
@@ -90,8 +117,17 @@ struct MeshData {
     name: String,
     positions: Vec<[f32; 3]>,
     normals: Option<Vec<[f32; 3]>>,
+    uvs: Option<Vec<[f32; 2]>>,
     indices: Option<Vec<u32>>,
     material: usize,
+}
+
+/// Stored data of one texture: its PNG image and how it is sampled.
+#[derive(Clone, Debug)]
+struct TextureData {
+    name: String,
+    png: Vec<u8>,
+    sampling: TextureSampling,
 }
 
 /// Stored data of one node.
@@ -126,6 +162,7 @@ pub struct GltfBuilder {
     meshes: Vec<MeshData>,
     nodes: Vec<NodeData>,
     cameras: Vec<CameraData>,
+    textures: Vec<TextureData>,
 }
 
 impl GltfBuilder {
@@ -137,14 +174,15 @@ impl GltfBuilder {
     /// Adds a material and returns its index.
     ///
     /// # Panics
-    /// If a factor is non-finite or outside its valid range.
+    /// If a factor is non-finite or outside its valid range, or a texture
+    /// does not exist.
     pub fn add_material(&mut self, material: Material) -> usize {
         let m = &material;
-        let unit = m
-            .base_color
-            .iter()
-            .chain(&m.emissive)
-            .chain([&m.metallic, &m.roughness]);
+        let unit =
+            m.base_color
+                .iter()
+                .chain(&m.emissive)
+                .chain([&m.metallic, &m.roughness, &m.specular]);
         for &v in unit {
             assert!(
                 (0.0..=1.0).contains(&v),
@@ -158,8 +196,41 @@ impl GltfBuilder {
             m.name,
             m.emissive_strength
         );
+        for texture in [m.emissive_texture, m.base_color_texture]
+            .into_iter()
+            .flatten()
+        {
+            assert!(
+                texture < self.textures.len(),
+                "material {:?}: no texture {texture}",
+                m.name
+            );
+        }
         self.materials.push(material);
         self.materials.len() - 1
+    }
+
+    /// Adds a texture showing the PNG image `png` (stored in the binary
+    /// buffer) and returns its index.
+    ///
+    /// # Panics
+    /// If `png` does not start with the PNG signature.
+    pub fn add_png_texture(
+        &mut self,
+        name: &str,
+        png: Vec<u8>,
+        sampling: TextureSampling,
+    ) -> usize {
+        assert!(
+            png.starts_with(b"\x89PNG\r\n\x1a\n"),
+            "texture {name:?}: not a PNG image"
+        );
+        self.textures.push(TextureData {
+            name: name.to_owned(),
+            png,
+            sampling,
+        });
+        self.textures.len() - 1
     }
 
     /// Adds a mesh with one triangle-list primitive and returns its index.
@@ -178,7 +249,29 @@ impl GltfBuilder {
         indices: Option<&[u32]>,
         material: usize,
     ) -> usize {
+        self.add_mesh_with_uvs(name, positions, normals, None, indices, material)
+    }
+
+    /// [`GltfBuilder::add_mesh`] with optional per-vertex texture
+    /// coordinates (`TEXCOORD_0`).
+    ///
+    /// # Panics
+    /// As [`GltfBuilder::add_mesh`], and if `uvs` has a different length
+    /// than `positions` or is not finite.
+    pub fn add_mesh_with_uvs(
+        &mut self,
+        name: &str,
+        positions: &[[f32; 3]],
+        normals: Option<&[[f32; 3]]>,
+        uvs: Option<&[[f32; 2]]>,
+        indices: Option<&[u32]>,
+        material: usize,
+    ) -> usize {
         assert!(!positions.is_empty(), "mesh {name:?}: no positions");
+        if let Some(uv) = uvs {
+            assert_eq!(uv.len(), positions.len(), "mesh {name:?}: uv count");
+            assert_finite(uv.iter().flatten(), name);
+        }
         assert_finite(positions.iter().flatten(), name);
         if let Some(n) = normals {
             assert_eq!(n.len(), positions.len(), "mesh {name:?}: normal count");
@@ -203,6 +296,7 @@ impl GltfBuilder {
             name: name.to_owned(),
             positions: positions.to_vec(),
             normals: normals.map(<[_]>::to_vec),
+            uvs: uvs.map(<[_]>::to_vec),
             indices: indices.map(<[_]>::to_vec),
             material,
         });
@@ -372,8 +466,15 @@ impl GltfBuilder {
             "asset".into(),
             json!({ "version": "2.0", "generator": "manylights" }),
         );
+        let mut extensions = Vec::new();
         if self.materials.iter().any(|m| m.emissive_strength != 1.0) {
-            doc.insert("extensionsUsed".into(), json!([EMISSIVE_STRENGTH_EXT]));
+            extensions.push(EMISSIVE_STRENGTH_EXT);
+        }
+        if self.materials.iter().any(|m| m.specular != 1.0) {
+            extensions.push(SPECULAR_EXT);
+        }
+        if !extensions.is_empty() {
+            doc.insert("extensionsUsed".into(), json!(extensions));
         }
         let roots: Vec<usize> = (0..self.nodes.len())
             .filter(|&i| self.nodes[i].parent.is_none())
@@ -398,6 +499,30 @@ impl GltfBuilder {
             &mut doc,
             "cameras",
             self.cameras.iter().map(camera_json).collect(),
+        );
+        let images: Vec<Value> = self
+            .textures
+            .iter()
+            .map(|t| {
+                let view = bin.view(&t.png, None);
+                json!({ "name": t.name, "bufferView": view, "mimeType": "image/png" })
+            })
+            .collect();
+        insert_array(&mut doc, "images", images);
+        insert_array(
+            &mut doc,
+            "samplers",
+            self.textures
+                .iter()
+                .map(|t| sampler_json(t.sampling))
+                .collect(),
+        );
+        insert_array(
+            &mut doc,
+            "textures",
+            (0..self.textures.len())
+                .map(|i| json!({ "sampler": i, "source": i }))
+                .collect(),
         );
         insert_array(&mut doc, "accessors", bin.accessors);
         insert_array(&mut doc, "bufferViews", bin.views);
@@ -431,18 +556,39 @@ struct BinWriter {
 }
 
 impl BinWriter {
-    /// Appends `bytes` as a new 4-byte-aligned buffer view; returns its index.
-    fn view(&mut self, bytes: &[u8], target: u32) -> usize {
+    /// Appends `bytes` as a new 4-byte-aligned buffer view (with a target
+    /// for vertex and index data, none for images); returns its index.
+    fn view(&mut self, bytes: &[u8], target: Option<u32>) -> usize {
         let offset = self.data.len();
         self.data.extend_from_slice(bytes);
         self.data.resize(self.data.len().next_multiple_of(4), 0);
-        self.views.push(json!({
+        let mut view = json!({
             "buffer": 0,
             "byteOffset": offset,
             "byteLength": bytes.len(),
-            "target": target,
-        }));
+        });
+        if let Some(target) = target {
+            view["target"] = json!(target);
+        }
+        self.views.push(view);
         self.views.len() - 1
+    }
+
+    /// Adds a VEC2 float accessor (texture coordinates).
+    fn vec2(&mut self, values: &[[f32; 2]]) -> usize {
+        let bytes: Vec<u8> = values
+            .iter()
+            .flatten()
+            .flat_map(|v| v.to_le_bytes())
+            .collect();
+        let view = self.view(&bytes, Some(ARRAY_BUFFER));
+        self.accessors.push(json!({
+            "bufferView": view,
+            "componentType": FLOAT,
+            "count": values.len(),
+            "type": "VEC2",
+        }));
+        self.accessors.len() - 1
     }
 
     /// Adds a VEC3 float accessor, with min/max when `bounds` is set.
@@ -452,7 +598,7 @@ impl BinWriter {
             .flatten()
             .flat_map(|v| v.to_le_bytes())
             .collect();
-        let view = self.view(&bytes, ARRAY_BUFFER);
+        let view = self.view(&bytes, Some(ARRAY_BUFFER));
         let mut acc = json!({
             "bufferView": view,
             "componentType": FLOAT,
@@ -483,7 +629,7 @@ impl BinWriter {
                 UNSIGNED_INT,
             )
         };
-        let view = self.view(&bytes, ELEMENT_ARRAY_BUFFER);
+        let view = self.view(&bytes, Some(ELEMENT_ARRAY_BUFFER));
         self.accessors.push(json!({
             "bufferView": view,
             "componentType": component,
@@ -500,6 +646,9 @@ fn mesh_json(mesh: &MeshData, bin: &mut BinWriter) -> Value {
     attributes.insert("POSITION".into(), json!(bin.vec3(&mesh.positions, true)));
     if let Some(normals) = &mesh.normals {
         attributes.insert("NORMAL".into(), json!(bin.vec3(normals, false)));
+    }
+    if let Some(uvs) = &mesh.uvs {
+        attributes.insert("TEXCOORD_0".into(), json!(bin.vec2(uvs)));
     }
     let mut primitive = json!({
         "attributes": attributes,
@@ -525,11 +674,38 @@ fn material_json(m: &Material) -> Value {
         "emissiveFactor": num_array(&m.emissive),
         "doubleSided": m.double_sided,
     });
+    if let Some(texture) = m.base_color_texture {
+        out["pbrMetallicRoughness"]["baseColorTexture"] = json!({ "index": texture });
+    }
+    if let Some(texture) = m.emissive_texture {
+        out["emissiveTexture"] = json!({ "index": texture });
+    }
+    let mut extensions = Map::new();
     if m.emissive_strength != 1.0 {
-        out["extensions"] =
-            json!({ EMISSIVE_STRENGTH_EXT: { "emissiveStrength": num(m.emissive_strength) } });
+        extensions.insert(
+            EMISSIVE_STRENGTH_EXT.into(),
+            json!({ "emissiveStrength": num(m.emissive_strength) }),
+        );
+    }
+    if m.specular != 1.0 {
+        extensions.insert(
+            SPECULAR_EXT.into(),
+            json!({ "specularFactor": num(m.specular) }),
+        );
+    }
+    if !extensions.is_empty() {
+        out["extensions"] = Value::Object(extensions);
     }
     out
+}
+
+/// Returns the JSON object of a sampler.
+fn sampler_json(sampling: TextureSampling) -> Value {
+    let (filter, wrap) = match sampling {
+        TextureSampling::NearestClamp => (NEAREST, CLAMP_TO_EDGE),
+        TextureSampling::LinearRepeat => (LINEAR, REPEAT),
+    };
+    json!({ "magFilter": filter, "minFilter": filter, "wrapS": wrap, "wrapT": wrap })
 }
 
 /// Returns the JSON object of a perspective camera.
@@ -762,6 +938,9 @@ pub(crate) mod tests {
             assert_eq!(normals, want.normals);
             let indices: Option<Vec<u32>> = reader.read_indices().map(|i| i.into_u32().collect());
             assert_eq!(indices, want.indices);
+            let uvs: Option<Vec<[f32; 2]>> =
+                reader.read_tex_coords(0).map(|t| t.into_f32().collect());
+            assert_eq!(uvs, want.uvs);
         }
         for (mat, want) in doc.materials().zip(&builder.materials) {
             assert_eq!(mat.name(), Some(want.name.as_str()));
@@ -870,6 +1049,45 @@ pub(crate) mod tests {
             doc["materials"][0]["pbrMetallicRoughness"]["baseColorFactor"],
             json!([1.0, 1.0, 1.0, 1.0])
         );
+    }
+
+    #[test]
+    fn textures_uvs_and_specular_round_trip() {
+        // The 8-byte PNG signature is all the builder checks; the bytes are stored verbatim.
+        let png = b"\x89PNG\r\n\x1a\nnot really an image".to_vec();
+        let mut b = GltfBuilder::new();
+        let glow = b.add_png_texture("glow", png.clone(), TextureSampling::NearestClamp);
+        let tiles = b.add_png_texture("tiles", png.clone(), TextureSampling::LinearRepeat);
+        let m = b.add_material(Material {
+            name: "textured".into(),
+            emissive: [1.0; 3],
+            emissive_texture: Some(glow),
+            base_color_texture: Some(tiles),
+            specular: 0.0,
+            ..Material::default()
+        });
+        let tri = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+        let uv = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]];
+        let mesh = b.add_mesh_with_uvs("tri", &tri, None, Some(&uv), None, m);
+        b.add_node("tri", Some(mesh), None, NodeTransform::Identity);
+        for ext in ["glb", "gltf"] {
+            let (doc, blob) = round_trip(&b, ext);
+            assert_matches(&b, &doc, &blob);
+            let mat = doc.materials().next().unwrap();
+            assert_eq!(mat.specular().map(|s| s.specular_factor()), Some(0.0));
+            let emissive = mat.emissive_texture().unwrap().texture();
+            let base = mat.pbr_metallic_roughness().base_color_texture().unwrap();
+            assert_eq!((emissive.index(), base.texture().index()), (0, 1));
+            let filter = emissive.sampler().mag_filter();
+            assert_eq!(filter, Some(gltf::texture::MagFilter::Nearest));
+            let wrap = base.texture().sampler().wrap_s();
+            assert_eq!(wrap, gltf::texture::WrappingMode::Repeat);
+            let gltf::image::Source::View { view, mime_type } = emissive.source().source() else {
+                panic!("image not in a buffer view");
+            };
+            assert_eq!(mime_type, "image/png");
+            assert_eq!(&blob[view.offset()..view.offset() + view.length()], png);
+        }
     }
 
     #[test]
