@@ -5,7 +5,8 @@
 //!   bilinear texture over its uv footprint (own bilinear filter, wrap and sRGB code);
 //! - the rendered plane against Lambert's polygon formula when the texture is constant on each
 //!   triangle (all three uvs of a triangle at one texel centre);
-//! - power and light-BVH selection (textured power, Le read at each sample's uv) against uniform
+//! - on the same emitter split into 2×2×2 large triangles (across which Le(uv) varies much),
+//!   power and light-BVH selection (textured power, Le read at each sample's uv) against uniform
 //!   selection and BSDF sampling (Le read at the hit's uv), block by block within 5σ;
 //! - missing, corrupt and oversized images, and TEXCOORD_1, as errors naming the image.
 
@@ -19,19 +20,24 @@ use manylights::scene::{load_gltf, CameraChoice, LoadError, Scene};
 use manylights::select::SelectorKind;
 use serde_json::json;
 
-/// Emitter grid (cells per side) and texture size (texels per side).
-const G: usize = 8;
+/// Texture size (texels per side), and the emitter grid (cells per side) for small triangles.
 const TEX: usize = 8;
+const FINE: usize = 8;
+/// A coarse grid whose triangles span many texels: Le(uv) then differs much from their mean.
+const COARSE: usize = 2;
 /// The emitter: the square [X0, X0 + SIDE] × [Y0, Y0 + SIDE] at height Z_E, facing −Z.
 const X0: f64 = 0.6;
 const Y0: f64 = -0.5;
 const SIDE: f64 = 1.0;
-const Z_E: f64 = 0.6;
+const Z_E: f64 = 0.15;
 const EMISSIVE_FACTOR: f64 = 4.0;
 /// The plane's base-colour texel (sRGB code) under a white factor.
 const ALBEDO_CODE: u8 = 188;
+/// The camera looks straight down from (CAMERA_X, 0, CAMERA_HEIGHT) at the strip of the plane
+/// next to the emitter (which it does not see), where BSDF samples often hit the emitter.
+const CAMERA_X: f64 = 0.3;
 const CAMERA_HEIGHT: f64 = 3.0;
-const YFOV_DEG: f64 = 20.0;
+const YFOV_DEG: f64 = 10.0;
 const SIZE: u32 = 24;
 
 const REPEAT: u32 = 10497;
@@ -74,11 +80,12 @@ fn png(width: usize, height: usize, codes: &[[u8; 3]]) -> Vec<u8> {
 /// How the emitter's triangles map to the texture.
 #[derive(Clone, Copy, PartialEq)]
 enum Uvs {
-    /// uv = −0.1 + 1.25·(position − corner)/SIDE over the square: footprints cross texel
-    /// cells and the texture's edges (REPEAT in u, MIRRORED_REPEAT in v).
-    Continuous,
-    /// All three uvs of cell (a, b)'s triangles at texel (a, b)'s centre: constant emission per
-    /// triangle (needs G = TEX).
+    /// A grid of this many cells per side, uv = −0.1 + 1.25·(position − corner)/SIDE over the
+    /// square: footprints cross texel cells and the texture's edges (REPEAT in u,
+    /// MIRRORED_REPEAT in v).
+    Continuous(usize),
+    /// A TEX×TEX grid with all three uvs of cell (a, b)'s triangles at texel (a, b)'s centre:
+    /// constant emission per triangle.
     TexelCentres,
 }
 
@@ -92,9 +99,13 @@ enum EmissiveImage {
 
 /// The emitter's triangles (positions facing −Z, and uvs), in file order.
 fn emitter_triangles(uvs: Uvs) -> Vec<([DVec3; 3], [Vec2; 3])> {
-    let s = SIDE / G as f64;
+    let grid = match uvs {
+        Uvs::Continuous(grid) => grid,
+        Uvs::TexelCentres => TEX,
+    };
+    let s = SIDE / grid as f64;
     let uv_of = |p: DVec3, a: usize, b: usize| match uvs {
-        Uvs::Continuous => Vec2::new(
+        Uvs::Continuous(_) => Vec2::new(
             (-0.1 + 1.25 * (p.x - X0) / SIDE) as f32,
             (-0.1 + 1.25 * (p.y - Y0) / SIDE) as f32,
         ),
@@ -104,8 +115,8 @@ fn emitter_triangles(uvs: Uvs) -> Vec<([DVec3; 3], [Vec2; 3])> {
         ),
     };
     let mut out = Vec::new();
-    for b in 0..G {
-        for a in 0..G {
+    for b in 0..grid {
+        for a in 0..grid {
             let c = |da: usize, db: usize| {
                 DVec3::new(X0 + (a + da) as f64 * s, Y0 + (b + db) as f64 * s, Z_E)
             };
@@ -183,7 +194,7 @@ fn write_scene(dir: &Path, name: &str, uvs: Uvs, image: EmissiveImage, tex_coord
         format!("data:{mime};base64,{b64}")
     };
     let (wrap_s, wrap_t) = match uvs {
-        Uvs::Continuous => (REPEAT, MIRROR),
+        Uvs::Continuous(_) => (REPEAT, MIRROR),
         Uvs::TexelCentres => (CLAMP, CLAMP),
     };
     let gltf = json!({
@@ -194,7 +205,7 @@ fn write_scene(dir: &Path, name: &str, uvs: Uvs, image: EmissiveImage, tex_coord
         "nodes": [
             {"mesh": 0},
             {"mesh": 1},
-            {"camera": 0, "translation": [0.0, 0.0, CAMERA_HEIGHT]}
+            {"camera": 0, "translation": [CAMERA_X, 0.0, CAMERA_HEIGHT]}
         ],
         "cameras": [{"type": "perspective", "perspective": {
             "yfov": YFOV_DEG.to_radians(), "aspectRatio": 1.0, "znear": 0.01}}],
@@ -275,9 +286,9 @@ fn luminance64(c: DVec3) -> f64 {
 
 #[test]
 fn triangle_power_matches_a_brute_force_average_over_its_texels() {
-    let scene = scene(Uvs::Continuous);
+    let scene = scene(Uvs::Continuous(FINE));
     let lights = Lights::from_scene(&scene);
-    let expected = emitter_triangles(Uvs::Continuous);
+    let expected = emitter_triangles(Uvs::Continuous(FINE));
     assert_eq!(lights.triangle_count(), expected.len());
     let brightest = emissive_codes()
         .iter()
@@ -380,7 +391,7 @@ fn expected_pixel(i: u32, j: u32) -> DVec3 {
         for b in 0..q {
             let sx = (2.0 * (i as f64 + (a as f64 + 0.5) / q as f64) / SIZE as f64 - 1.0) * t;
             let sy = (1.0 - 2.0 * (j as f64 + (b as f64 + 0.5) / q as f64) / SIZE as f64) * t;
-            sum += plane_radiance(CAMERA_HEIGHT * sx, CAMERA_HEIGHT * sy);
+            sum += plane_radiance(CAMERA_X + CAMERA_HEIGHT * sx, CAMERA_HEIGHT * sy);
         }
     }
     sum / (q * q) as f64
@@ -410,7 +421,7 @@ fn render_scene(
 #[test]
 fn camera_sees_only_the_plane() {
     let reach = (CAMERA_HEIGHT - Z_E) * (0.5 * YFOV_DEG.to_radians()).tan();
-    assert!(X0 > reach, "the emitter is visible");
+    assert!(X0 > CAMERA_X + reach, "the emitter is visible");
 }
 
 #[test]
@@ -479,7 +490,7 @@ fn blocks(film: &manylights::film::Film) -> Vec<(DVec3, DVec3)> {
 
 #[test]
 fn textured_power_and_bvh_selection_agree_with_uniform_selection_and_bsdf_sampling() {
-    let scene = scene(Uvs::Continuous);
+    let scene = scene(Uvs::Continuous(COARSE));
     let baseline = blocks(&render_scene(
         &scene,
         SelectorKind::Uniform,
@@ -522,7 +533,13 @@ fn missing_corrupt_and_oversized_images_are_errors_naming_the_image() {
     let dir = tempfile::tempdir().unwrap();
     let uri = |name: &str| EmissiveImage::Uri(name.into());
 
-    let path = write_scene(dir.path(), "missing", Uvs::Continuous, uri("glow.png"), 0);
+    let path = write_scene(
+        dir.path(),
+        "missing",
+        Uvs::Continuous(FINE),
+        uri("glow.png"),
+        0,
+    );
     let err = load_error(&path);
     assert!(err.contains("image 0") && err.contains("glow.png"), "{err}");
     // The same file once the image exists beside it: it loads, with the texture's size.
@@ -541,7 +558,7 @@ fn missing_corrupt_and_oversized_images_are_errors_naming_the_image() {
     let path = write_scene(
         dir.path(),
         "corrupt",
-        Uvs::Continuous,
+        Uvs::Continuous(FINE),
         EmissiveImage::View(corrupt),
         0,
     );
@@ -551,7 +568,7 @@ fn missing_corrupt_and_oversized_images_are_errors_naming_the_image() {
     let path = write_scene(
         dir.path(),
         "text",
-        Uvs::Continuous,
+        Uvs::Continuous(FINE),
         EmissiveImage::View(b"hello".to_vec()),
         0,
     );
@@ -570,7 +587,7 @@ fn missing_corrupt_and_oversized_images_are_errors_naming_the_image() {
     let path = write_scene(
         dir.path(),
         "huge",
-        Uvs::Continuous,
+        Uvs::Continuous(FINE),
         EmissiveImage::View(huge),
         0,
     );
@@ -581,7 +598,7 @@ fn missing_corrupt_and_oversized_images_are_errors_naming_the_image() {
     );
 
     let image = EmissiveImage::View(png(TEX, TEX, &emissive_codes()));
-    let path = write_scene(dir.path(), "texcoord1", Uvs::Continuous, image, 1);
+    let path = write_scene(dir.path(), "texcoord1", Uvs::Continuous(FINE), image, 1);
     let err = load_error(&path);
     assert!(
         err.contains("emissiveTexture") && err.contains("TEXCOORD_1"),
@@ -593,7 +610,7 @@ fn missing_corrupt_and_oversized_images_are_errors_naming_the_image() {
 fn cli_reports_textures_and_exits_3_on_a_missing_image() {
     let dir = tempfile::tempdir().unwrap();
     let image = EmissiveImage::View(png(TEX, TEX, &emissive_codes()));
-    let good = write_scene(dir.path(), "good", Uvs::Continuous, image, 0);
+    let good = write_scene(dir.path(), "good", Uvs::Continuous(FINE), image, 0);
     let run = |path: &Path| {
         std::process::Command::new(env!("CARGO_BIN_EXE_manylights"))
             .args(["info", path.to_str().unwrap()])
@@ -610,7 +627,7 @@ fn cli_reports_textures_and_exits_3_on_a_missing_image() {
     let bad = write_scene(
         dir.path(),
         "bad",
-        Uvs::Continuous,
+        Uvs::Continuous(FINE),
         EmissiveImage::Uri("nope.png".into()),
         0,
     );
