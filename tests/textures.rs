@@ -143,7 +143,7 @@ fn write_scene(dir: &Path, name: &str, uvs: Uvs, image: EmissiveImage, tex_coord
     let mut bin: Vec<u8> = Vec::new();
     let mut views = Vec::new();
     let mut push_view = |bin: &mut Vec<u8>, bytes: &[u8]| {
-        while bin.len() % 4 != 0 {
+        while !bin.len().is_multiple_of(4) {
             bin.push(0);
         }
         views.push(json!({"buffer": 0, "byteOffset": bin.len(), "byteLength": bytes.len()}));
