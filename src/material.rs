@@ -28,8 +28,13 @@ pub struct Brdf {
 
 impl Brdf {
     pub fn new(m: &Material) -> Brdf {
+        Brdf::with_base_color(m, m.base_color)
+    }
+
+    /// The material's BRDF with `base_color` in place of its factor (a textured base colour).
+    pub fn with_base_color(m: &Material, base_color: Vec3) -> Brdf {
         Brdf {
-            base_color: m.base_color,
+            base_color,
             metallic: m.metallic,
             specular: m.specular,
             alpha: (m.roughness * m.roughness).max(MIN_ALPHA),

@@ -34,6 +34,24 @@ pub fn run(args: &InfoArgs) -> anyhow::Result<()> {
         lights.total_power()
     );
     println!("materials          {}", scene.materials.len());
+    if !scene.textures.is_empty() {
+        const LISTED: usize = 8;
+        let mut sizes: Vec<String> = (scene.textures.iter().take(LISTED))
+            .map(|t| format!("{}×{}", t.width, t.height))
+            .collect();
+        if scene.textures.len() > LISTED {
+            sizes.push("…".into());
+        }
+        println!(
+            "textures           {} ({})",
+            scene.textures.len(),
+            sizes.join(", ")
+        );
+        println!(
+            "textured emitters  {} (power from each one's emissive texture mean over its own uv footprint)",
+            lights.triangles().filter(|l| l.textured).count()
+        );
+    }
     println!(
         "bounds             [{:.4}, {:.4}, {:.4}] .. [{:.4}, {:.4}, {:.4}]",
         lo.x, lo.y, lo.z, hi.x, hi.y, hi.z

@@ -110,7 +110,7 @@ impl Estimator<'_> {
             return Vec3::ZERO;
         };
         let wo = -dir;
-        let emitted = self.emission_at(hit.triangle, wo);
+        let emitted = self.emission_at(&hit, wo);
         let x = self.shading_point(&hit, wo);
         let reflected = match self.strategy {
             Strategy::LightArea => self.light_samples(&x, Technique::Area, false, rng, counts),
@@ -129,15 +129,29 @@ impl Estimator<'_> {
         emitted + reflected
     }
 
-    /// Le of a triangle toward unit direction `w` (zero on a one-sided emitter's back).
-    fn emission_at(&self, triangle: u32, w: Vec3) -> Vec3 {
-        let tri = &self.scene.triangles[triangle as usize];
+    /// Le at a hit point toward unit direction `w` (zero on a one-sided emitter's back), its
+    /// emissive texture read at the hit's uv.
+    fn emission_at(&self, hit: &Hit, w: Vec3) -> Vec3 {
+        let tri = &self.scene.triangles[hit.triangle as usize];
         let m = &self.scene.materials[tri.material as usize];
         if m.is_emissive() && emits_toward(tri.geometric_normal(), m.double_sided, w) {
-            m.emission
+            self.scene
+                .emission_at(hit.triangle as usize, hit.b1, hit.b2)
         } else {
             Vec3::ZERO
         }
+    }
+
+    /// Le at point x' of a triangle light toward unit direction `w`: the texture read at x''s
+    /// barycentrics when the light is textured.
+    #[inline]
+    fn light_emission(&self, light: &TriangleLight, point: Vec3, w: Vec3) -> Vec3 {
+        let le = light.emitted(w);
+        if !light.textured || le == Vec3::ZERO {
+            return le;
+        }
+        let (b1, b2) = light.barycentrics(point);
+        self.scene.emission_at(light.triangle as usize, b1, b2)
     }
 
     fn shading_point(&self, hit: &Hit, wo: Vec3) -> ShadingPoint {
@@ -152,7 +166,10 @@ impl Estimator<'_> {
         // normals disagree with its winding.
         let ns = (b0 * n0 + hit.b1 * n1 + hit.b2 * n2).normalize_or(ng);
         let ns = if ns.dot(ng) < 0.0 { -ns } else { ns };
-        let brdf = Brdf::new(&self.scene.materials[tri.material as usize]);
+        let base_color = self
+            .scene
+            .base_color_at(hit.triangle as usize, hit.b1, hit.b2);
+        let brdf = Brdf::with_base_color(&self.scene.materials[tri.material as usize], base_color);
         ShadingPoint {
             p,
             ng,
@@ -224,7 +241,7 @@ impl Estimator<'_> {
         if x.ng.dot(wi) <= 0.0 {
             return NOTHING;
         }
-        let le = light.emitted(-wi);
+        let le = self.light_emission(light, s.point, -wi);
         let f = x.brdf.eval(x.ns, x.wo, wi);
         if le == Vec3::ZERO || f == Vec3::ZERO {
             return NOTHING;
@@ -300,7 +317,7 @@ impl Estimator<'_> {
             let Some(hit) = self.accel.closest_hit(origin, wi, f32::INFINITY) else {
                 continue;
             };
-            let le = self.emission_at(hit.triangle, -wi);
+            let le = self.emission_at(&hit, -wi);
             if le == Vec3::ZERO || pdf <= 0.0 {
                 continue;
             }
@@ -356,7 +373,7 @@ impl Estimator<'_> {
             let Some(hit) = self.accel.closest_hit(origin, wi, f32::INFINITY) else {
                 continue;
             };
-            let le = self.emission_at(hit.triangle, -wi);
+            let le = self.emission_at(&hit, -wi);
             if le == Vec3::ZERO {
                 continue;
             }

@@ -1,5 +1,6 @@
 //! Lights: one per emissive triangle plus the scene's punctual lights, each with the power used
-//! for selection and its own sampling routine.
+//! for selection and its own sampling routine. A textured emitter's power uses its emission
+//! averaged over the triangle's own uv footprint, not the factor or the whole image's mean.
 
 pub mod polygon;
 pub mod power_stats;
@@ -82,8 +83,9 @@ impl Lights {
                     e2: p2 - p0,
                     normal: t.geometric_normal(),
                     area: t.area(),
-                    radiance: m.emission,
+                    radiance: scene.mean_emission(i),
                     two_sided: m.double_sided,
+                    textured: m.emissive_texture.is_some(),
                     triangle: i as u32,
                 }));
                 triangle_of_light.push(i);

@@ -95,6 +95,7 @@ mod tests {
             area: 1.0 / std::f32::consts::PI,
             radiance: Vec3::splat(radiance),
             two_sided,
+            textured: false,
             triangle: 0,
         })
     }

@@ -1,4 +1,4 @@
-//! An emissive triangle of constant radiance, sampled uniformly by area (pdf 1/A).
+//! An emissive triangle, sampled uniformly by area (pdf 1/A) or in solid angle (pdf 1/Ω).
 
 use glam::Vec3;
 
@@ -36,7 +36,7 @@ pub struct TriangleSample {
     pub spherical: bool,
 }
 
-/// An emissive triangle of constant radiance: p(b1, b2) = p0 + b1·e1 + b2·e2.
+/// An emissive triangle: p(b1, b2) = p0 + b1·e1 + b2·e2.
 #[derive(Clone, Debug)]
 pub struct TriangleLight {
     pub p0: Vec3,
@@ -45,9 +45,12 @@ pub struct TriangleLight {
     /// Unit normal of the front face.
     pub normal: Vec3,
     pub area: f32,
-    /// Emitted radiance, W·sr⁻¹·m⁻².
+    /// Emitted radiance, W·sr⁻¹·m⁻²; for a textured emitter its mean over the triangle (the
+    /// radiance at a point is the scene's `emission_at`).
     pub radiance: Vec3,
     pub two_sided: bool,
+    /// Whether the emission varies over the triangle (an emissive texture).
+    pub textured: bool,
     /// The scene triangle this light is.
     pub triangle: u32,
 }
@@ -125,7 +128,19 @@ impl TriangleLight {
         self.p0 + b1 * self.e1 + b2 * self.e2
     }
 
-    /// Radiance leaving the light toward unit direction `w`.
+    /// Barycentrics (b1, b2) of a point x on the triangle's plane, x = p0 + b1·e1 + b2·e2:
+    /// b1 = ((x − p0) × e2)·n / ((e1 × e2)·n), b2 = (e1 × (x − p0))·n / ((e1 × e2)·n).
+    #[inline]
+    pub fn barycentrics(&self, x: Vec3) -> (f32, f32) {
+        let d = x - self.p0;
+        let inv = 1.0 / self.e1.cross(self.e2).dot(self.normal);
+        (
+            d.cross(self.e2).dot(self.normal) * inv,
+            self.e1.cross(d).dot(self.normal) * inv,
+        )
+    }
+
+    /// Radiance leaving the light toward unit direction `w` (the mean radiance when textured).
     #[inline]
     pub fn emitted(&self, w: Vec3) -> Vec3 {
         if emits_toward(self.normal, self.two_sided, w) {
@@ -150,6 +165,7 @@ mod tests {
             area: 1.0,
             radiance: Vec3::new(1.0, 1.0, 1.0),
             two_sided: false,
+            textured: false,
             triangle: 0,
         };
         assert!((l.power() - std::f64::consts::PI).abs() < 1e-6);
@@ -159,5 +175,29 @@ mod tests {
         l.two_sided = false;
         assert_eq!(l.emitted(-Vec3::Z), Vec3::ZERO);
         assert_eq!(l.emitted(Vec3::Z), l.radiance);
+    }
+
+    #[test]
+    fn barycentrics_invert_the_parametrisation() {
+        let l = TriangleLight {
+            p0: Vec3::new(1.0, -2.0, 0.5),
+            e1: Vec3::new(2.0, 0.5, -1.0),
+            e2: Vec3::new(-0.5, 1.5, 2.0),
+            normal: Vec3::new(2.0, 0.5, -1.0)
+                .cross(Vec3::new(-0.5, 1.5, 2.0))
+                .normalize(),
+            area: 0.0,
+            radiance: Vec3::ONE,
+            two_sided: false,
+            textured: true,
+            triangle: 0,
+        };
+        for (b1, b2) in [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (0.2, 0.7), (0.45, 0.1)] {
+            let (c1, c2) = l.barycentrics(l.p0 + b1 * l.e1 + b2 * l.e2);
+            assert!(
+                (c1 - b1).abs() < 1e-5 && (c2 - b2).abs() < 1e-5,
+                "{b1},{b2}: {c1},{c2}"
+            );
+        }
     }
 }

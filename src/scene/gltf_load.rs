@@ -8,6 +8,13 @@
 //! `tests/fuzz_loader.rs` fuzzes all of this. Non-finite positions are an error (they
 //! signal a broken exporter, not a scene to be rendered partially); zero-area triangles are
 //! skipped and counted.
+//!
+//! Textures: a material's baseColorTexture and emissiveTexture (the latter only when the
+//! emissive factor is non-zero, since it multiplies it) are decoded once, PNG or JPEG, from a
+//! buffer view, a data URI or a file relative to the scene, into linear RGB with their sampler's
+//! wrap modes; min/mag filters are ignored (always bilinear). Only TEXCOORD_0 is supported: a
+//! texture read through another set is an error rather than a silently wrong picture. A missing,
+//! unreadable or undecodable image is an error naming the image and its file.
 
 use std::path::{Path, PathBuf};
 
@@ -16,8 +23,10 @@ use glam::{Mat3, Mat4, Vec2, Vec3};
 use gltf::accessor::{DataType, Dimensions};
 use gltf::camera::Projection;
 
+use super::texture_decode::decode_image;
 use super::{
-    geometric_normal, Camera, LoadStats, Material, PunctualKind, PunctualLight, Scene, Triangle,
+    geometric_normal, Camera, LoadStats, Material, PunctualKind, PunctualLight, Scene, Texture,
+    Triangle, Wrap,
 };
 
 /// Which of the scene's perspective cameras to use, by position in node order or by name.
@@ -100,10 +109,12 @@ pub fn load_gltf_bytes(
 
     let mut loader = Loader {
         buffers: &buffers,
+        base_dir,
         materials: Vec::new(),
-        material_map: Vec::new(),
+        material_map: vec![None; document.materials().len() + 1],
+        textures: Vec::new(),
+        texture_map: vec![None; document.textures().len()],
     };
-    loader.material_map = vec![None; document.materials().len() + 1];
     let scene = document
         .default_scene()
         .or_else(|| document.scenes().next())
@@ -150,8 +161,11 @@ pub fn load_gltf_bytes(
                     stats.skipped_primitives += 1;
                     continue;
                 }
+                let material = loader
+                    .material_index(&prim.material())
+                    .map_err(|(e, m)| invalid(e, m))?;
                 loader
-                    .read_primitive(&prim, &world, &mut triangles, &mut stats)
+                    .read_primitive(&prim, material, &world, &mut triangles, &mut stats)
                     .map_err(|m| invalid(element, m))?;
             }
         }
@@ -166,10 +180,11 @@ pub fn load_gltf_bytes(
     }
 
     let camera = choose_camera(&cameras, camera).map_err(|m| invalid("camera".into(), m))?;
-    let materials = loader.materials;
+    let (materials, textures) = (loader.materials, loader.textures);
     let scene_element = format!("scene {}", scene.index());
     let mut scene = Scene::new(triangles, materials, camera)
         .and_then(|s| s.with_punctual(punctual))
+        .and_then(|s| s.with_textures(textures))
         .map_err(|m| invalid(scene_element, m))?;
     scene.stats.skipped_primitives = stats.skipped_primitives;
     scene.stats.degenerate_triangles += stats.degenerate_triangles;
@@ -296,26 +311,114 @@ fn percent_decode(uri: &str) -> String {
 
 struct Loader<'a> {
     buffers: &'a [Vec<u8>],
+    /// External image files resolve relative to this directory.
+    base_dir: &'a Path,
     materials: Vec<Material>,
     /// glTF material index (last slot: the default material) → index into `materials`.
     material_map: Vec<Option<u32>>,
+    textures: Vec<Texture>,
+    /// glTF texture index → index into `textures`.
+    texture_map: Vec<Option<u32>>,
 }
 
+/// An error's element and message.
+type Located = (String, String);
+
 impl Loader<'_> {
-    fn material_index(&mut self, material: &gltf::Material) -> u32 {
+    /// The scene material for a glTF material, converted (and its textures decoded) on first use.
+    fn material_index(&mut self, material: &gltf::Material) -> Result<u32, Located> {
         let slot = material.index().unwrap_or(self.material_map.len() - 1);
         if let Some(i) = self.material_map[slot] {
-            return i;
+            return Ok(i);
+        }
+        let mut m = convert_material(material);
+        let element = |what: &str| match material.index() {
+            Some(i) => format!("material {i}{} {what}", quoted(material.name())),
+            None => format!("default material {what}"),
+        };
+        let base = material.pbr_metallic_roughness().base_color_texture();
+        m.base_color_texture = self.texture_index(base, || element("baseColorTexture"))?;
+        if m.is_emissive() {
+            let emissive = material.emissive_texture();
+            m.emissive_texture = self.texture_index(emissive, || element("emissiveTexture"))?;
         }
         let i = self.materials.len() as u32;
-        self.materials.push(convert_material(material));
+        self.materials.push(m);
         self.material_map[slot] = Some(i);
-        i
+        Ok(i)
+    }
+
+    /// The scene texture for a material's texture reference, decoded on first use.
+    fn texture_index(
+        &mut self,
+        info: Option<gltf::texture::Info>,
+        element: impl Fn() -> String,
+    ) -> Result<Option<u32>, Located> {
+        let Some(info) = info else {
+            return Ok(None);
+        };
+        if info.tex_coord() != 0 {
+            return Err((
+                element(),
+                format!(
+                    "reads TEXCOORD_{}; only TEXCOORD_0 is supported",
+                    info.tex_coord()
+                ),
+            ));
+        }
+        let texture = info.texture();
+        if let Some(i) = self.texture_map[texture.index()] {
+            return Ok(Some(i));
+        }
+        let image = texture.source();
+        let mut image_element = format!(
+            "image {}{} (texture {})",
+            image.index(),
+            quoted(image.name()),
+            texture.index()
+        );
+        let bytes = match image.source() {
+            gltf::image::Source::View { view, .. } => {
+                let data = self.buffers.get(view.buffer().index());
+                let range = view.offset()..view.offset().saturating_add(view.length());
+                let bytes = data.and_then(|d| d.get(range)).ok_or_else(|| {
+                    let message = format!(
+                        "buffer view {} (offset {}, length {}) extends past its buffer {}",
+                        view.index(),
+                        view.offset(),
+                        view.length(),
+                        view.buffer().index()
+                    );
+                    (image_element.clone(), message)
+                })?;
+                std::borrow::Cow::Borrowed(bytes)
+            }
+            gltf::image::Source::Uri { uri, .. } => {
+                if !uri.starts_with("data:") {
+                    image_element = format!("{image_element} '{uri}'");
+                }
+                let bytes = read_uri(uri, self.base_dir).map_err(|m| (image_element.clone(), m))?;
+                std::borrow::Cow::Owned(bytes)
+            }
+        };
+        let decoded = decode_image(&bytes).map_err(|m| (image_element.clone(), m))?;
+        let sampler = texture.sampler();
+        let wrap = [
+            convert_wrap(sampler.wrap_s()),
+            convert_wrap(sampler.wrap_t()),
+        ];
+        let texture_out = Texture::new(decoded.width, decoded.height, decoded.texels, wrap)
+            .ok_or_else(|| (image_element, "texel count does not match its size".into()))?;
+        let i = self.textures.len() as u32;
+        self.textures.push(texture_out);
+        self.texture_map[texture.index()] = Some(i);
+        Ok(Some(i))
     }
 
     fn read_primitive(
         &mut self,
         prim: &gltf::Primitive,
+        material: u32,
         world: &Mat4,
         out: &mut Vec<Triangle>,
         stats: &mut LoadStats,
@@ -421,7 +524,6 @@ impl Loader<'_> {
             ));
         }
 
-        let material = self.material_index(&prim.material());
         let normal_matrix = Mat3::from_mat4(*world).inverse().transpose();
         let mirrored = Mat3::from_mat4(*world).determinant() < 0.0;
         let to_world = |p: Vec3| world.transform_point3(p);
@@ -588,6 +690,15 @@ fn check_elements(
     Ok(())
 }
 
+fn convert_wrap(mode: gltf::texture::WrappingMode) -> Wrap {
+    match mode {
+        gltf::texture::WrappingMode::Repeat => Wrap::Repeat,
+        gltf::texture::WrappingMode::ClampToEdge => Wrap::ClampToEdge,
+        gltf::texture::WrappingMode::MirroredRepeat => Wrap::MirroredRepeat,
+    }
+}
+
+/// The material's constant factors (its textures are added by the loader).
 fn convert_material(m: &gltf::Material) -> Material {
     let pbr = m.pbr_metallic_roughness();
     let [r, g, b, _] = pbr.base_color_factor();
@@ -600,6 +711,8 @@ fn convert_material(m: &gltf::Material) -> Material {
         specular: specular.clamp(0.0, 1.0),
         emission: (Vec3::from(m.emissive_factor()) * strength).max(Vec3::ZERO),
         double_sided: m.double_sided(),
+        base_color_texture: None,
+        emissive_texture: None,
     }
 }
 

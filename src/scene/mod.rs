@@ -8,13 +8,17 @@ mod camera;
 pub mod generate;
 mod gltf_load;
 pub mod gltf_write;
+pub mod texture;
+pub mod texture_decode;
 
 pub use camera::Camera;
 pub use gltf_load::{load_gltf, load_gltf_bytes, CameraChoice, LoadError};
+pub use texture::{Texture, Wrap};
 
 use glam::{Vec2, Vec3};
 
-/// glTF metallic-roughness material, reduced to constant factors.
+/// glTF metallic-roughness material: constant factors, and optional base-colour and emissive
+/// textures (indices into [`Scene::textures`]) that multiply them, read at TEXCOORD_0.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
     /// Linear Rec.709 base colour (albedo of the diffuse lobe, F0 of metals).
@@ -29,6 +33,10 @@ pub struct Material {
     pub emission: Vec3,
     /// Emits (and is a light) from both faces; otherwise only from the counter-clockwise front.
     pub double_sided: bool,
+    /// Multiplies `base_color`.
+    pub base_color_texture: Option<u32>,
+    /// Multiplies `emission`.
+    pub emissive_texture: Option<u32>,
 }
 
 impl Default for Material {
@@ -41,6 +49,8 @@ impl Default for Material {
             specular: 1.0,
             emission: Vec3::ZERO,
             double_sided: false,
+            base_color_texture: None,
+            emissive_texture: None,
         }
     }
 }
@@ -163,6 +173,8 @@ pub struct Scene {
     /// The camera the file chose (or None when the file has no perspective camera).
     pub camera: Option<Camera>,
     pub punctual: Vec<PunctualLight>,
+    /// The textures materials refer to, linear RGB.
+    pub textures: Vec<Texture>,
     pub stats: LoadStats,
 }
 
@@ -201,6 +213,7 @@ impl Scene {
             materials,
             camera,
             punctual: Vec::new(),
+            textures: Vec::new(),
             stats,
         })
     }
@@ -218,6 +231,73 @@ impl Scene {
         }
         self.punctual = lights;
         Ok(self)
+    }
+
+    /// Adds the textures that materials refer to (every material's texture index must be in range).
+    pub fn with_textures(mut self, textures: Vec<Texture>) -> Result<Scene, String> {
+        for (i, m) in self.materials.iter().enumerate() {
+            for t in [m.base_color_texture, m.emissive_texture]
+                .into_iter()
+                .flatten()
+            {
+                if t as usize >= textures.len() {
+                    return Err(format!(
+                        "material {i} uses texture {t} but there are {} textures",
+                        textures.len()
+                    ));
+                }
+            }
+        }
+        self.textures = textures;
+        Ok(self)
+    }
+
+    /// The texture coordinates of `triangle` at barycentrics (b1, b2): uv0 + b1·(uv1 − uv0) +
+    /// b2·(uv2 − uv0).
+    #[inline]
+    pub fn uv_at(&self, triangle: usize, b1: f32, b2: f32) -> Vec2 {
+        let [t0, t1, t2] = self.triangles[triangle].uvs;
+        t0 + b1 * (t1 - t0) + b2 * (t2 - t0)
+    }
+
+    /// Emitted radiance of `triangle` at barycentrics (b1, b2), whatever the direction:
+    /// emission factor × the emissive texture at that point's uv.
+    #[inline]
+    pub fn emission_at(&self, triangle: usize, b1: f32, b2: f32) -> Vec3 {
+        let m = self.material_of(triangle);
+        match m.emissive_texture {
+            Some(t) if m.is_emissive() => {
+                m.emission * self.textures[t as usize].sample_bilinear(self.uv_at(triangle, b1, b2))
+            }
+            _ => m.emission,
+        }
+    }
+
+    /// Base colour of `triangle` at barycentrics (b1, b2): factor × base-colour texture.
+    #[inline]
+    pub fn base_color_at(&self, triangle: usize, b1: f32, b2: f32) -> Vec3 {
+        let m = self.material_of(triangle);
+        match m.base_color_texture {
+            Some(t) => {
+                m.base_color
+                    * self.textures[t as usize].sample_bilinear(self.uv_at(triangle, b1, b2))
+            }
+            None => m.base_color,
+        }
+    }
+
+    /// Mean emitted radiance of `triangle` over its surface: emission factor × the emissive
+    /// texture's mean over the triangle's uv footprint (see
+    /// [`Texture::average_over_uv_triangle`]); the factor alone when untextured.
+    pub fn mean_emission(&self, triangle: usize) -> Vec3 {
+        let m = self.material_of(triangle);
+        match m.emissive_texture {
+            Some(t) if m.is_emissive() => {
+                let uvs = self.triangles[triangle].uvs;
+                m.emission * self.textures[t as usize].average_over_uv_triangle(uvs)
+            }
+            _ => m.emission,
+        }
     }
 
     pub fn material_of(&self, triangle: usize) -> &Material {
