@@ -73,7 +73,7 @@ pub fn run(args: &InfoArgs) -> anyhow::Result<()> {
     }
     if let Some(p) = PowerStats::of(&lights) {
         println!(
-            "power per light    min {:.3e}  median {:.3e}  max {:.3e} W ({} with zero power)",
+            "power per light    min non-zero {:.3e}  median {:.3e}  max {:.3e} W ({} with zero power)",
             p.min_positive, p.median, p.max, p.zero
         );
         println!(
