@@ -7,8 +7,14 @@
 
 use glam::Vec3;
 
-/// Images with more texels than this (16384²) are refused before anything is allocated.
-pub const MAX_TEXELS: u64 = 1 << 28;
+/// Images with more texels than this (8192², 768 MiB as linear f32 RGB) are refused before
+/// anything is allocated.
+pub const MAX_TEXELS: u64 = 1 << 26;
+
+/// Deflate cannot expand data by more than 1032:1 (RFC 1951: a 258-byte match costs at least
+/// 2 bits), so a PNG whose declared pixels need more than this many bytes per file byte is lying
+/// about its size and is refused before its buffer is allocated.
+const PNG_MAX_EXPANSION: u64 = 1032;
 
 /// The sRGB electro-optical transfer function: encoded value in [0, 1] → linear.
 #[inline]
@@ -73,6 +79,13 @@ fn decode_png(bytes: &[u8]) -> Result<DecodedImage, String> {
     let size = reader
         .output_buffer_size()
         .ok_or("is too large to decode")?;
+    if size as u64 > PNG_MAX_EXPANSION * bytes.len() as u64 + 4096 {
+        return Err(format!(
+            "declares {width}×{height} texels ({size} bytes decoded) but holds only {} bytes, \
+             more than deflate can expand",
+            bytes.len()
+        ));
+    }
     let mut buf = vec![0u8; size];
     let frame = reader.next_frame(&mut buf).map_err(bad)?;
     let channels = frame.color_type.samples();
@@ -335,5 +348,20 @@ mod tests {
         huge.extend(crc32(&idat).to_be_bytes());
         let err = decode_image(&huge).unwrap_err();
         assert!(err.contains("65536×65536"), "{err}");
+        // 8192 × 8192 (allowed by MAX_TEXELS, 192 MiB decoded) in a 60-byte file: refused
+        // before the output buffer is allocated.
+        let mut ihdr = b"IHDR".to_vec();
+        ihdr.extend(8192u32.to_be_bytes());
+        ihdr.extend(8192u32.to_be_bytes());
+        ihdr.extend([8, 2, 0, 0, 0]);
+        let mut liar = b"\x89PNG\r\n\x1a\n".to_vec();
+        liar.extend(13u32.to_be_bytes());
+        liar.extend(&ihdr);
+        liar.extend(crc32(&ihdr).to_be_bytes());
+        liar.extend(2u32.to_be_bytes());
+        liar.extend(&idat);
+        liar.extend(crc32(&idat).to_be_bytes());
+        let err = decode_image(&liar).unwrap_err();
+        assert!(err.contains("more than deflate can expand"), "{err}");
     }
 }
