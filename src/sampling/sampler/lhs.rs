@@ -2,6 +2,7 @@
 //! i of `count` is stratified in 1D by its own seeded permutation, so every one of the `count`
 //! rows and every column holds exactly one point, with no joint 2D stratification.
 
+use super::scramble::subseed;
 use super::stratified;
 
 /// Point `index` of `count`: x and y stratified with independent permutations.
@@ -9,6 +10,6 @@ use super::stratified;
 pub fn sample_2d(index: u64, count: u64, seed: u64) -> [u32; 2] {
     [
         stratified::sample_1d(index, count, seed),
-        stratified::sample_1d(index, count, seed ^ 0x6c8e_9cf5_7093_2bd5),
+        stratified::sample_1d(index, count, subseed(seed, 0)),
     ]
 }

@@ -40,7 +40,7 @@ mod scramble;
 mod sobol;
 mod stratified;
 
-use scramble::hash;
+use scramble::{hash, subseed};
 
 /// The dimension layout (see the module doc): the first dimension of each group.
 const PIXEL: u64 = 0;
@@ -150,7 +150,7 @@ impl PixelSampler {
         let sm = &self.sampler;
         Point {
             dim,
-            seed: hash(self.key, dim),
+            seed: subseed(self.key, dim),
             local: s * per_sample + slot,
             count: sm.spp * per_sample,
             absolute: (sm.first_sample + s) * per_sample + slot,
@@ -183,7 +183,7 @@ impl PixelSampler {
                 let base = |d: u64| halton::PRIMES[d as usize];
                 [
                     halton::sample(p.absolute, base(p.dim), p.seed),
-                    halton::sample(p.absolute, base(p.dim + 1), hash(self.key, p.dim + 1)),
+                    halton::sample(p.absolute, base(p.dim + 1), subseed(self.key, p.dim + 1)),
                 ]
             }
             SamplerKind::Sobol => sobol::sample_2d(p.absolute, p.seed),

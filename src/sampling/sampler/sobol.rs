@@ -7,58 +7,75 @@
 //! blocks, keeping every prefix of 2^m points a net) so groups are decorrelated, then each
 //! coordinate is Owen-scrambled, so each point is uniform.
 
-use super::scramble::{hash, owen_scramble};
+use super::scramble::{hash, owen_scramble, subseed};
 
-/// Generator matrix columns of Sobol dimension 1: v_0 = 2^31, v_j = v_{j−1} ⊕ (v_{j−1} >> 1)
-/// (primitive polynomial x + 1).
-const DIM1: [u32; 32] = {
-    let mut v = [0u32; 32];
-    v[0] = 1 << 31;
+/// Sobol dimension 1 (primitive polynomial x + 1) as XOR tables, one per byte of the index:
+/// TABLES[b][v] = ⊕ of the generator columns of the set bits of v·2^(8b), with the columns
+/// v_0 = 2^31, v_j = v_{j−1} ⊕ (v_{j−1} >> 1) (the Pascal matrix mod 2).
+static TABLES: [[u32; 256]; 4] = {
+    let mut columns = [0u32; 32];
+    columns[0] = 1 << 31;
     let mut j = 1;
     while j < 32 {
-        v[j] = v[j - 1] ^ (v[j - 1] >> 1);
+        columns[j] = columns[j - 1] ^ (columns[j - 1] >> 1);
         j += 1;
     }
-    v
+    let mut tables = [[0u32; 256]; 4];
+    let mut byte = 0;
+    while byte < 4 {
+        let mut v = 0;
+        while v < 256 {
+            let mut x = 0;
+            let mut bit = 0;
+            while bit < 8 {
+                if v & (1 << bit) != 0 {
+                    x ^= columns[byte * 8 + bit];
+                }
+                bit += 1;
+            }
+            tables[byte][v] = x;
+            v += 1;
+        }
+        byte += 1;
+    }
+    tables
 };
 
-/// Sobol dimension 1 of `index`: the XOR of the columns of its set bits.
+/// Sobol dimension 1 of `index`: the XOR of the generator columns of its set bits.
 #[inline]
-fn sobol_dim1(mut index: u32) -> u32 {
-    let mut x = 0;
-    let mut j = 0;
-    while index != 0 {
-        if index & 1 != 0 {
-            x ^= DIM1[j];
-        }
-        index >>= 1;
-        j += 1;
-    }
-    x
+fn sobol_dim1(index: u32) -> u32 {
+    let [b0, b1, b2, b3] = index.to_le_bytes();
+    TABLES[0][b0 as usize]
+        ^ TABLES[1][b1 as usize]
+        ^ TABLES[2][b2 as usize]
+        ^ TABLES[3][b3 as usize]
 }
 
-/// The scrambled index and the group's coordinate seeds. Indices beyond 2^32 continue with a
-/// fresh scramble.
+/// The scrambled index and the group's seed (its low half shuffles the index, its high half
+/// scrambles the first coordinate). Indices beyond 2^32 continue with a fresh seed.
 #[inline]
 fn shuffled(index: u64, seed: u64) -> (u32, u64) {
-    let seed = hash(seed, index >> 32);
-    (owen_scramble(index as u32, seed), hash(seed, 1))
+    let seed = match index >> 32 {
+        0 => seed,
+        high => hash(seed, high),
+    };
+    (owen_scramble(index as u32, seed as u32), seed)
 }
 
-/// Point `index` of a one-dimensional group: scrambled van der Corput.
+/// Point `index` of a one-dimensional group (`seed` well mixed): scrambled van der Corput.
 #[inline]
 pub fn sample_1d(index: u64, seed: u64) -> u32 {
     let (i, s) = shuffled(index, seed);
-    owen_scramble(i.reverse_bits(), s)
+    owen_scramble(i.reverse_bits(), (s >> 32) as u32)
 }
 
-/// Point `index` of a two-dimensional group.
+/// Point `index` of a two-dimensional group (`seed` well mixed).
 #[inline]
 pub fn sample_2d(index: u64, seed: u64) -> [u32; 2] {
     let (i, s) = shuffled(index, seed);
     [
-        owen_scramble(i.reverse_bits(), s),
-        owen_scramble(sobol_dim1(i), hash(s, 2)),
+        owen_scramble(i.reverse_bits(), (s >> 32) as u32),
+        owen_scramble(sobol_dim1(i), subseed(s, 0) as u32),
     ]
 }
 
@@ -67,11 +84,21 @@ mod tests {
     use super::*;
 
     #[test]
-    fn dimension_one_matches_the_published_sequence() {
+    fn dimension_one_matches_the_published_sequence_and_its_recurrence() {
         // Sobol's second dimension in natural (not Gray-code) order.
         let expected = [0.0, 0.5, 0.75, 0.25, 0.625, 0.125, 0.375, 0.875];
         for (i, e) in expected.iter().enumerate() {
             assert_eq!(sobol_dim1(i as u32) as f64 / 2f64.powi(32), *e, "index {i}");
         }
+        // Bit j of the index contributes the column v_j, built here bit by bit.
+        let mut v = 1u32 << 31;
+        for j in 0..32 {
+            assert_eq!(sobol_dim1(1 << j), v, "column {j}");
+            v ^= v >> 1;
+        }
+        assert_eq!(
+            sobol_dim1(0xffff_ffff),
+            (0..32).fold(0, |x, j| x ^ sobol_dim1(1 << j))
+        );
     }
 }

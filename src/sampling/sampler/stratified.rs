@@ -9,7 +9,11 @@ use super::scramble::{hash, permute};
 /// The fraction of 2^32 at `(stratum + jitter/2^32) / strata`, exact in integers.
 #[inline]
 pub fn in_stratum(stratum: u64, jitter: u32, strata: u64) -> u32 {
-    ((((stratum as u128) << 32) | jitter as u128) / strata as u128) as u32
+    if stratum >> 32 == 0 {
+        (((stratum << 32) | jitter as u64) / strata) as u32
+    } else {
+        ((((stratum as u128) << 32) | jitter as u128) / strata as u128) as u32
+    }
 }
 
 /// Point `index` of `count` stratified in 1D.
