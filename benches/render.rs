@@ -10,6 +10,7 @@ use manylights::accel::Accel;
 use manylights::integrator::{render, PreparedScene, RenderOptions, Strategy};
 use manylights::lights::Lights;
 use manylights::sampling::rng::PixelRng;
+use manylights::sampling::sampler::SamplerKind;
 use manylights::scene::{load_gltf, Scene};
 use manylights::select::{LightSelector, SelectorKind, ShadingContext};
 
@@ -82,6 +83,8 @@ fn town_benches(c: &mut Criterion) {
         height: 128,
         spp: 1,
         seed: 0,
+        sampler: SamplerKind::Independent,
+        first_sample: 0,
         clamp: None,
     };
     for kind in [SelectorKind::Power, SelectorKind::Bvh] {

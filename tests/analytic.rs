@@ -5,6 +5,7 @@
 
 use glam::{DVec3, Mat4, Vec3};
 use manylights::integrator::{render, PreparedScene, RenderOptions, Strategy};
+use manylights::sampling::sampler::SamplerKind;
 use manylights::scene::{Camera, Material, Scene, Triangle};
 use manylights::select::SelectorKind;
 
@@ -124,6 +125,8 @@ fn check_scene(
         height: SIZE,
         spp,
         seed: 11,
+        sampler: SamplerKind::Independent,
+        first_sample: 0,
         clamp: None,
     };
     let (film, stats) = render(&estimator, &camera, &opts);

@@ -178,9 +178,10 @@ fn usage_errors_exit_with_2() {
     assert_eq!(o.status.code(), Some(2));
 }
 
-/// Renders a small town image with the given thread count and seed; returns the EXR bytes.
-fn render_town(dir: &Path, threads: &str, seed: &str) -> Vec<u8> {
-    let out = dir.join(format!("t{threads}-{seed}.exr"));
+/// Renders a small town image with the given thread count, seed and sampler; returns the EXR
+/// bytes.
+fn render_town(dir: &Path, threads: &str, seed: &str, sampler: &str) -> Vec<u8> {
+    let out = dir.join(format!("t{threads}-{seed}-{sampler}.exr"));
     let town = repo("scenes/town.glb");
     let o = manylights(&[
         "render",
@@ -198,6 +199,8 @@ fn render_town(dir: &Path, threads: &str, seed: &str) -> Vec<u8> {
         "--variance",
         "--seed",
         seed,
+        "--sampler",
+        sampler,
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     std::fs::read(&out).unwrap()
@@ -206,10 +209,17 @@ fn render_town(dir: &Path, threads: &str, seed: &str) -> Vec<u8> {
 #[test]
 fn image_is_bit_identical_for_one_and_two_threads() {
     let dir = tempfile::tempdir().unwrap();
-    let one = render_town(dir.path(), "1", "5");
-    assert_eq!(one, render_town(dir.path(), "2", "5"));
-    // A different seed gives a different image: the comparison above is not vacuous.
-    assert_ne!(one, render_town(dir.path(), "2", "6"));
+    for sampler in ["independent", "sobol"] {
+        let one = render_town(dir.path(), "1", "5", sampler);
+        assert_eq!(one, render_town(dir.path(), "2", "5", sampler), "{sampler}");
+        // A different seed gives a different image: the comparison above is not vacuous.
+        assert_ne!(one, render_town(dir.path(), "2", "6", sampler), "{sampler}");
+    }
+    // And a different sampler another image.
+    assert_ne!(
+        render_town(dir.path(), "2", "5", "independent"),
+        render_town(dir.path(), "2", "5", "halton")
+    );
 }
 
 #[test]

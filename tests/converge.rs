@@ -8,6 +8,7 @@ use manylights::integrator::Strategy;
 use manylights::measure::converge::{run, ConvergeOptions};
 use manylights::measure::reference::{render_reference, ReferenceOptions, DEFAULT_ESTIMATOR};
 use manylights::measure::{EstimatorChoice, SceneSetup};
+use manylights::sampling::sampler::SamplerKind;
 use manylights::select::SelectorKind;
 
 fn options(clamp: Option<f32>) -> ConvergeOptions {
@@ -17,6 +18,7 @@ fn options(clamp: Option<f32>) -> ConvergeOptions {
             strategy: Strategy::LightArea,
             k: 1,
             n: 1,
+            sampler: SamplerKind::Independent,
         },
         spp: vec![4, 8, 16, 32, 64],
         // 16 seeds over 32×32 pixels put the slope's standard error near 0.04, well inside

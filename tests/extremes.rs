@@ -13,6 +13,7 @@ use manylights::integrator::{render, PreparedScene, RenderOptions, RenderStats, 
 use manylights::lights::polygon::projected_solid_angle;
 use manylights::lights::Lights;
 use manylights::sampling::rng::PixelRng;
+use manylights::sampling::sampler::SamplerKind;
 use manylights::scene::{load_gltf, Camera, CameraChoice, Material, Scene, Triangle};
 use manylights::select::{oracle, LightSelector, SelectorKind, ShadingContext};
 
@@ -70,6 +71,8 @@ fn probe(
         spp,
         seed: 17,
         clamp: None,
+        sampler: SamplerKind::Independent,
+        first_sample: 0,
     };
     let (film, stats) = render(&estimator, &look_at(eye, target, 1e-5), &opts);
     (film.pixels[0], stats)
@@ -315,6 +318,8 @@ fn degenerate_triangles_in_a_file_are_skipped_counted_and_render_finite() {
             spp: 16,
             seed: 1,
             clamp: None,
+            sampler: SamplerKind::Independent,
+            first_sample: 0,
         };
         let (film, stats) = render(&estimator, &camera, &opts);
         assert_eq!(stats.nan_samples + stats.inf_samples, 0);
@@ -915,6 +920,8 @@ fn fireflies_are_counted_where_a_rare_light_dominates_and_never_in_a_constant_sc
         spp: 1024,
         seed: 5,
         clamp: None,
+        sampler: SamplerKind::Independent,
+        first_sample: 0,
     };
     let (film, stats) = render(&estimator, &camera, &opts);
     let n = stats.camera_samples as f64;

@@ -10,7 +10,7 @@ use glam::{DVec3, Vec3};
 use manylights::cli::gen::{build, SceneName};
 use manylights::integrator::{render, PreparedScene, RenderOptions, SampleCounts, Strategy};
 use manylights::lights::Lights;
-use manylights::sampling::rng::PixelRng;
+use manylights::sampling::sampler::{Sampler, SamplerKind};
 use manylights::scene::generate::extremes::{Probe, PROBES, RECEIVER_ALBEDO};
 use manylights::scene::{load_gltf, load_gltf_bytes, CameraChoice, Scene, Triangle};
 use manylights::select::SelectorKind;
@@ -348,6 +348,8 @@ fn committed_scenes_render_without_nan_or_inf() {
                 spp: 4,
                 seed: 5,
                 clamp: None,
+                sampler: SamplerKind::Independent,
+                first_sample: 0,
             };
             let (film, stats) = render(&estimator, &camera, &opts);
             assert_eq!(
@@ -429,11 +431,13 @@ fn probe_estimate(
     let estimator = prepared.estimator(strategy, 1, 1);
     let origin = Vec3::from(probe.approach);
     let dir = (Vec3::from(probe.point) - origin).normalize();
-    let mut rng = PixelRng::new(seed, 0);
+    let sampler = Sampler::new(SamplerKind::Independent, seed, 0, SAMPLES as u32, 1, 1);
+    let pixel = sampler.pixel(0);
     let mut counts = SampleCounts::default();
     let (mut sum, mut sum_sq) = (0.0, 0.0);
-    for _ in 0..SAMPLES {
-        let v = estimator.radiance(origin, dir, &mut rng, &mut counts).x as f64;
+    for s in 0..SAMPLES as u32 {
+        let cs = pixel.camera_sample(s);
+        let v = estimator.radiance(origin, dir, &cs, &mut counts).x as f64;
         sum += v;
         sum_sq += v * v;
     }

@@ -234,3 +234,75 @@ fn bench_refuses_an_unknown_baseline_before_rendering() {
     );
     assert!(!dir.path().join("cornell.glb.ref").exists());
 }
+
+#[test]
+fn bench_sweeps_samplers_and_converge_records_its_sampler() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = cornell_copy(dir.path());
+    let (s, b, c) = (
+        scene.to_str().unwrap(),
+        dir.path().join("b.json"),
+        dir.path().join("c.json"),
+    );
+    let o = manylights(&[
+        "bench",
+        s,
+        "--width",
+        "8",
+        "--spp",
+        "4,16",
+        "--repeat",
+        "2",
+        "--reference-spp",
+        "64",
+        "--samplers",
+        "independent,sobol",
+        "--baseline",
+        "power:light-area:1x1:sobol",
+        "--json",
+        b.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let rows = json(&b);
+    let rows = rows.as_array().unwrap();
+    assert_eq!(rows.len(), 4);
+    for (row, (sampler, spp)) in rows.iter().zip([
+        ("independent", 4),
+        ("independent", 16),
+        ("sobol", 4),
+        ("sobol", 16),
+    ]) {
+        assert_eq!(row["sampler"], sampler, "{row}");
+        assert_eq!(row["spp"], spp, "{row}");
+        assert_eq!(
+            row["baseline"],
+            format!("power:light-area:1x1:sobol:{spp}"),
+            "{row}"
+        );
+    }
+    assert_eq!(rows[3]["mse_ratio"], 1.0);
+    let table = String::from_utf8_lossy(&o.stdout);
+    assert!(table.contains("power:light-area:1x1:sobol "), "{table}");
+
+    let o = manylights(&[
+        "converge",
+        s,
+        "--width",
+        "16",
+        "--seeds",
+        "8",
+        "--sampler",
+        "sobol",
+        "--json",
+        c.to_str().unwrap(),
+    ]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(o.status.code(), Some(0), "{stdout}");
+    assert!(stdout.contains("Sobol sampler"), "{stdout}");
+    let report = json(&c);
+    assert_eq!(report["estimator"]["sampler"], "sobol");
+    assert_eq!(report["passed"], true);
+
+    let o = manylights(&["converge", s, "--sampler", "sobol,halton"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+}

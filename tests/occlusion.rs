@@ -4,6 +4,7 @@
 use glam::{Mat4, Vec3};
 use manylights::accel::Accel;
 use manylights::integrator::{render, PreparedScene, RenderOptions, Strategy};
+use manylights::sampling::sampler::SamplerKind;
 use manylights::scene::{Camera, Material, Scene, Triangle};
 use manylights::select::SelectorKind;
 
@@ -41,6 +42,8 @@ fn render_scene(scene: &Scene, strategy: Strategy, spp: u32) -> manylights::film
         height: 24,
         spp,
         seed: 3,
+        sampler: SamplerKind::Independent,
+        first_sample: 0,
         clamp: None,
     };
     render(&estimator, scene.camera.as_ref().unwrap(), &opts).0

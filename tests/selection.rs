@@ -6,6 +6,7 @@
 
 use manylights::film::Film;
 use manylights::integrator::{render, PreparedScene, RenderOptions, Strategy};
+use manylights::sampling::sampler::SamplerKind;
 use manylights::scene::{generate, load_gltf, CameraChoice, Scene};
 use manylights::select::SelectorKind;
 
@@ -27,6 +28,8 @@ fn render_with(scene: &Scene, kind: SelectorKind, strategy: Strategy, k: u32, sp
         height: SIZE,
         spp,
         seed: kind as u64 * 7 + 1,
+        sampler: SamplerKind::Independent,
+        first_sample: 0,
         clamp: None,
     };
     let (film, stats) = render(&estimator, scene.camera.as_ref().unwrap(), &opts);

@@ -16,6 +16,7 @@ use base64::Engine;
 use glam::{DVec3, Vec2};
 use manylights::integrator::{render, PreparedScene, RenderOptions, Strategy};
 use manylights::lights::{luminance, Light, Lights};
+use manylights::sampling::sampler::SamplerKind;
 use manylights::scene::{load_gltf, CameraChoice, LoadError, Scene};
 use manylights::select::SelectorKind;
 use serde_json::json;
@@ -412,6 +413,8 @@ fn render_scene(
         spp,
         seed: 5,
         clamp: None,
+        sampler: SamplerKind::Independent,
+        first_sample: 0,
     };
     let (film, stats) = render(&estimator, &camera, &opts);
     assert_eq!(stats.nan_samples + stats.inf_samples, 0);

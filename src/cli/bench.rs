@@ -10,7 +10,9 @@ use super::options::{RenderOptionsArgs, RENDER_DEFAULTS};
 use super::reference::obtain_reference;
 use super::render::check_output_path;
 use super::UsageError;
-use crate::measure::bench::{apply_baseline, estimator_label, run, target_answers, BenchPlan};
+use crate::measure::bench::{
+    apply_baseline, estimator_label, run, split_baseline, target_answers, BenchPlan,
+};
 use crate::measure::plot::{plot_relmse_vs_seconds, write_error_image};
 use crate::measure::report::{csv, markdown, table, write_json, write_text};
 use crate::measure::{EstimatorChoice, SceneSetup};
@@ -32,8 +34,9 @@ pub struct BenchArgs {
     /// Samples per pixel of a reference bench renders itself.
     #[arg(long, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
     pub reference_spp: u32,
-    /// The configuration ratios compare against, selector:strategy:KxN[:spp]
-    /// (default: the first; without :spp, at each row's own spp).
+    /// The configuration ratios compare against, selector:strategy:KxN[:sampler][:spp]
+    /// (default: the first; without :spp, at each row's own spp; without :sampler,
+    /// independent).
     #[arg(long)]
     pub baseline: Option<String>,
     /// Equal time: each configuration renders 1-spp passes until this many seconds are spent
@@ -92,7 +95,7 @@ fn or<T: Clone>(values: &[T], default: T) -> Vec<T> {
     }
 }
 
-/// Every (selector, strategy, K, N) the options ask for, in the order given.
+/// Every (selector, strategy, K, N, sampler) the options ask for, in the order given.
 pub fn estimators(args: &BenchArgs) -> Result<Vec<EstimatorChoice>, UsageError> {
     let o = &args.options;
     let d = RENDER_DEFAULTS.estimator;
@@ -113,12 +116,15 @@ pub fn estimators(args: &BenchArgs) -> Result<Vec<EstimatorChoice>, UsageError> 
     for selector in or(&o.selector, d.selector) {
         for strategy in or(&o.strategy, d.strategy) {
             for &(k, n) in &kn {
-                out.push(EstimatorChoice {
-                    selector,
-                    strategy,
-                    k,
-                    n,
-                });
+                for sampler in or(&o.sampler, d.sampler) {
+                    out.push(EstimatorChoice {
+                        selector,
+                        strategy,
+                        k,
+                        n,
+                        sampler,
+                    });
+                }
             }
         }
     }
@@ -157,8 +163,7 @@ pub fn run_bench(args: &BenchArgs) -> anyhow::Result<()> {
         time_budget: args.time_budget,
     };
     if let Some(b) = &args.baseline {
-        let config: Vec<&str> = b.splitn(4, ':').take(3).collect();
-        let config = config.join(":");
+        let (config, _) = split_baseline(b);
         if !plan.estimators.iter().any(|e| estimator_label(e) == config) {
             let known: Vec<String> = plan.estimators.iter().map(estimator_label).collect();
             return Err(UsageError(format!(

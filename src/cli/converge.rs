@@ -20,7 +20,8 @@ pub struct ConvergeArgs {
     /// Renders per spp, each with its own seed.
     #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..=1000))]
     pub seeds: u32,
-    /// Allowed deviation of the fitted log-log slope from −1.
+    /// Allowed deviation of the fitted log-log slope from −1 (with a sampler other than
+    /// independent: how much shallower than −1 it may be).
     #[arg(long, default_value_t = 0.15)]
     pub tolerance: f64,
     /// The reference EXR (default: render one with bvh + mis, or reuse the cached one).
@@ -82,11 +83,12 @@ pub fn run_converge(args: &ConvergeArgs) -> anyhow::Result<bool> {
 fn print_report(r: &ConvergeReport) {
     let e = r.estimator;
     println!(
-        "converge  {:?} {:?} K x N = {} x {}, {} seeds{}",
+        "converge  {:?} {:?} K x N = {} x {}, {:?} sampler, {} seeds{}",
         e.selector,
         e.strategy,
         e.k,
         e.n,
+        e.sampler,
         r.seeds,
         r.clamp
             .map_or(String::new(), |c| format!(", clamp {c} (biased)"))

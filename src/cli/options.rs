@@ -1,6 +1,6 @@
 //! The render options every rendering subcommand shares (render, reference, bench, converge),
 //! with the same names everywhere. Options a sweep can vary (`--spp`, `--selector`,
-//! `--strategy`, `--k`, `--n`) take comma-separated lists; commands that render one
+//! `--strategy`, `--k`, `--n`, `--sampler`) take comma-separated lists; commands that render one
 //! configuration accept exactly one value and fall back to their own default when none is given.
 
 use std::path::PathBuf;
@@ -10,6 +10,7 @@ use clap::Args;
 use super::UsageError;
 use crate::integrator::Strategy;
 use crate::measure::EstimatorChoice;
+use crate::sampling::sampler::SamplerKind;
 use crate::scene::CameraChoice;
 use crate::select::SelectorKind;
 
@@ -33,6 +34,10 @@ pub struct RenderOptionsArgs {
     /// --strategies).
     #[arg(long, value_enum, value_delimiter = ',', alias = "strategies")]
     pub strategy: Vec<Strategy>,
+    /// Sample sequence for every number a camera sample consumes [default: independent]
+    /// (bench: a list, also as --samplers).
+    #[arg(long, value_enum, value_delimiter = ',', alias = "samplers")]
+    pub sampler: Vec<SamplerKind>,
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// Image width in pixels.
@@ -60,7 +65,8 @@ pub struct Defaults {
     pub estimator: EstimatorChoice,
 }
 
-/// `render`'s defaults: 16 spp, power selection, light-area sampling, K = N = 1.
+/// `render`'s defaults: 16 spp, power selection, light-area sampling, K = N = 1, independent
+/// numbers.
 pub const RENDER_DEFAULTS: Defaults = Defaults {
     spp: 16,
     estimator: EstimatorChoice {
@@ -68,6 +74,7 @@ pub const RENDER_DEFAULTS: Defaults = Defaults {
         strategy: Strategy::LightArea,
         k: 1,
         n: 1,
+        sampler: SamplerKind::Independent,
     },
 };
 
@@ -80,6 +87,7 @@ impl RenderOptionsArgs {
             strategy: single("--strategy", &self.strategy, d.strategy)?,
             k: single("--k", &self.k, d.k)?,
             n: single("--n", &self.n, d.n)?,
+            sampler: single("--sampler", &self.sampler, d.sampler)?,
         })
     }
 

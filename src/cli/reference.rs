@@ -70,7 +70,7 @@ pub fn run(args: &ReferenceArgs) -> anyhow::Result<()> {
         .as_ref()
         .expect("a rendered reference has a sidecar");
     println!(
-        "reference {}x{}, {} spp in {} passes, {:.2} s, selector {:?}, strategy {:?}, K x N = {} x {}",
+        "reference {}x{}, {} spp in {} passes, {:.2} s, selector {:?}, strategy {:?}, K x N = {} x {}, sampler {:?}",
         setup.width,
         setup.height,
         meta.spp,
@@ -79,7 +79,8 @@ pub fn run(args: &ReferenceArgs) -> anyhow::Result<()> {
         estimator.selector,
         estimator.strategy,
         estimator.k,
-        estimator.n
+        estimator.n,
+        estimator.sampler
     );
     println!(
         "relmse    {:.3e} (the reference's own, estimated from its variance)",

@@ -12,6 +12,7 @@ use super::options::{RenderOptionsArgs, RENDER_DEFAULTS};
 use crate::image::{write_atomically, write_exr, write_png_preview, RgbImage};
 use crate::integrator::{render, PreparedScene, RenderOptions, RenderStats, Strategy};
 use crate::measure::{camera_or_framing, EstimatorChoice};
+use crate::sampling::sampler::SamplerKind;
 use crate::scene::load_gltf;
 use crate::select::SelectorKind;
 
@@ -58,6 +59,7 @@ pub struct RenderSummary {
     pub n: u32,
     pub selector: SelectorKind,
     pub strategy: Strategy,
+    pub sampler: SamplerKind,
     pub seed: u64,
     /// Per-channel clamp of each camera sample (None: unbiased).
     pub clamp: Option<f32>,
@@ -157,6 +159,8 @@ fn render_scene(
         height,
         spp,
         seed: o.seed,
+        sampler: choice.sampler,
+        first_sample: 0,
         clamp: o.clamp,
     };
     let t = Instant::now();
@@ -191,6 +195,7 @@ fn render_scene(
         n: choice.n,
         selector: choice.selector,
         strategy: choice.strategy,
+        sampler: choice.sampler,
         seed: o.seed,
         clamp: o.clamp,
         biased: o.clamp.is_some(),
@@ -220,8 +225,8 @@ fn print_summary(s: &RenderSummary) {
         s.total_power
     );
     println!(
-        "image     {}x{}, {} spp, K x N = {} x {}, selector {:?}, strategy {:?}, seed {}, {} threads",
-        s.width, s.height, s.spp, s.k, s.n, s.selector, s.strategy, s.seed, s.threads
+        "image     {}x{}, {} spp, K x N = {} x {}, selector {:?}, strategy {:?}, sampler {:?}, seed {}, {} threads",
+        s.width, s.height, s.spp, s.k, s.n, s.selector, s.strategy, s.sampler, s.seed, s.threads
     );
     if let Some(c) = s.clamp {
         println!("clamp     each sample clamped to {c} per channel (biased)");

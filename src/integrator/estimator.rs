@@ -20,7 +20,7 @@ use super::Strategy;
 use crate::accel::{offset_ray_origin, Accel, Hit};
 use crate::lights::{emits_toward, Light, Lights, Technique, TriangleLight};
 use crate::material::Brdf;
-use crate::sampling::rng::PixelRng;
+use crate::sampling::sampler::CameraSample;
 use crate::sampling::warp::{self, Frame};
 use crate::scene::Scene;
 use crate::select::{LightSelector, ShadingContext};
@@ -102,7 +102,7 @@ impl Estimator<'_> {
         &self,
         origin: Vec3,
         dir: Vec3,
-        rng: &mut PixelRng,
+        cs: &CameraSample,
         counts: &mut SampleCounts,
     ) -> Vec3 {
         counts.camera_rays += 1;
@@ -113,17 +113,17 @@ impl Estimator<'_> {
         let emitted = self.emission_at(&hit, wo);
         let x = self.shading_point(&hit, wo);
         let reflected = match self.strategy {
-            Strategy::LightArea => self.light_samples(&x, Technique::Area, false, rng, counts),
+            Strategy::LightArea => self.light_samples(&x, Technique::Area, false, cs, counts),
             Strategy::LightSolidAngle => {
-                self.light_samples(&x, Technique::SolidAngle, false, rng, counts)
+                self.light_samples(&x, Technique::SolidAngle, false, cs, counts)
             }
-            Strategy::Bsdf => self.bsdf_samples(&x, false, rng, counts),
+            Strategy::Bsdf => self.bsdf_samples(&x, false, cs, counts),
             Strategy::Mis => {
-                self.light_samples(&x, Technique::SolidAngle, true, rng, counts)
-                    + self.bsdf_samples(&x, true, rng, counts)
+                self.light_samples(&x, Technique::SolidAngle, true, cs, counts)
+                    + self.bsdf_samples(&x, true, cs, counts)
             }
             Strategy::HemisphereUniform | Strategy::HemisphereCosine => {
-                self.hemisphere(&x, rng, counts)
+                self.hemisphere(&x, cs, counts)
             }
         };
         emitted + reflected
@@ -186,7 +186,7 @@ impl Estimator<'_> {
         x: &ShadingPoint,
         technique: Technique,
         mis: bool,
-        rng: &mut PixelRng,
+        cs: &CameraSample,
         counts: &mut SampleCounts,
     ) -> Vec3 {
         let Some(selector) = self.selector else {
@@ -195,15 +195,15 @@ impl Estimator<'_> {
         let ctx = x.context();
         let (k, n) = (self.k as f32, self.n as f32);
         let mut sum = Vec3::ZERO;
-        for _ in 0..self.k {
-            let Some((l, p_l)) = selector.sample(self.lights, &ctx, rng.next_f64()) else {
+        for slot in 0..self.k {
+            let Some((l, p_l)) = selector.sample(self.lights, &ctx, cs.light_choice(slot)) else {
                 continue;
             };
             let p_l = p_l as f32;
             match &self.lights.lights[l] {
                 Light::Triangle(light) => {
-                    for _ in 0..self.n {
-                        let u = rng.next_2d();
+                    for i in 0..self.n {
+                        let u = cs.light_point(slot, i);
                         let (f_le_g, p_x, w) =
                             self.triangle_sample(x, light, p_l, technique, mis, u, counts);
                         sum += f_le_g * w / (k * n * p_l * p_x);
@@ -298,15 +298,15 @@ impl Estimator<'_> {
         &self,
         x: &ShadingPoint,
         mis: bool,
-        rng: &mut PixelRng,
+        cs: &CameraSample,
         counts: &mut SampleCounts,
     ) -> Vec3 {
         let samples = (self.k * self.n) as f32;
         let origin = offset_ray_origin(x.p, x.ng);
         let mut sum = Vec3::ZERO;
-        for _ in 0..self.k * self.n {
-            let u_lobe = rng.next_f32();
-            let Some(wi) = x.brdf.sample(x.ns, x.wo, u_lobe, rng.next_2d()) else {
+        for j in 0..self.k * self.n {
+            let u_lobe = cs.bsdf_lobe(j);
+            let Some(wi) = x.brdf.sample(x.ns, x.wo, u_lobe, cs.bsdf_direction(j)) else {
                 continue;
             };
             if x.ng.dot(wi) <= 0.0 {
@@ -350,19 +350,19 @@ impl Estimator<'_> {
     }
 
     /// Σ over K·N directions of f · Le · cosθ / (K · N · p(ω)), uniform or cosine p(ω).
-    fn hemisphere(&self, x: &ShadingPoint, rng: &mut PixelRng, counts: &mut SampleCounts) -> Vec3 {
+    fn hemisphere(&self, x: &ShadingPoint, cs: &CameraSample, counts: &mut SampleCounts) -> Vec3 {
         let frame = Frame::new(x.ns);
         let origin = offset_ray_origin(x.p, x.ng);
         let samples = self.k * self.n;
         let mut sum = Vec3::ZERO;
-        for _ in 0..samples {
+        for j in 0..samples {
             let (local, pdf) = if self.strategy == Strategy::HemisphereUniform {
                 (
-                    warp::uniform_hemisphere(rng.next_2d()),
+                    warp::uniform_hemisphere(cs.bsdf_direction(j)),
                     warp::UNIFORM_HEMISPHERE_PDF,
                 )
             } else {
-                let w = warp::cosine_hemisphere(rng.next_2d());
+                let w = warp::cosine_hemisphere(cs.bsdf_direction(j));
                 (w, warp::cosine_hemisphere_pdf(w.z))
             };
             let wi = frame.to_world(local);

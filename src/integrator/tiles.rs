@@ -1,5 +1,6 @@
-//! The parallel render loop: rayon over 16×16 tiles. Each pixel draws from its own random
-//! stream derived from (seed, pixel index), so the image is bit-identical for any thread count.
+//! The parallel render loop: rayon over 16×16 tiles. Each pixel's numbers are pure functions
+//! of (seed, pixel index, dimension, sample index) (see `sampling::sampler`), so the image is
+//! bit-identical for any thread count.
 
 use glam::Vec3;
 use rayon::prelude::*;
@@ -7,7 +8,7 @@ use rayon::prelude::*;
 use super::estimator::{Estimator, SampleCounts};
 use crate::film::{classify, Film, PixelStats, SampleClass};
 use crate::lights::luminance;
-use crate::sampling::rng::PixelRng;
+use crate::sampling::sampler::{Sampler, SamplerKind};
 use crate::scene::Camera;
 
 const TILE: u32 = 16;
@@ -19,6 +20,11 @@ pub struct RenderOptions {
     /// Camera samples per pixel, each box-filtered (uniform jitter inside the pixel).
     pub spp: u32,
     pub seed: u64,
+    /// Where each camera sample's numbers come from.
+    pub sampler: SamplerKind,
+    /// Index of this render's first camera sample in each pixel's sequence: a progressive pass
+    /// starts where the previous ones ended (0 for a render of its own).
+    pub first_sample: u64,
     /// Per-channel upper bound on each finite camera sample's radiance (biased when set).
     pub clamp: Option<f32>,
 }
@@ -62,9 +68,17 @@ pub fn render(estimator: &Estimator, camera: &Camera, opts: &RenderOptions) -> (
     let tiles: Vec<(u32, u32)> = (0..h.div_ceil(TILE))
         .flat_map(|ty| (0..tiles_x).map(move |tx| (tx, ty)))
         .collect();
+    let sampler = Sampler::new(
+        opts.sampler,
+        opts.seed,
+        opts.first_sample,
+        opts.spp,
+        estimator.k,
+        estimator.n,
+    );
     let rendered: Vec<(Vec<PixelStats>, RenderStats)> = tiles
         .par_iter()
-        .map(|&(tx, ty)| render_tile(estimator, camera, opts, tx, ty))
+        .map(|&(tx, ty)| render_tile(estimator, camera, opts, &sampler, tx, ty))
         .collect();
 
     let mut film = Film {
@@ -89,6 +103,7 @@ fn render_tile(
     estimator: &Estimator,
     camera: &Camera,
     opts: &RenderOptions,
+    sampler: &Sampler,
     tx: u32,
     ty: u32,
 ) -> (Vec<PixelStats>, RenderStats) {
@@ -100,12 +115,13 @@ fn render_tile(
     for y in ty * TILE..((ty + 1) * TILE).min(h) {
         for x in tx * TILE..((tx + 1) * TILE).min(w) {
             luminances.clear();
-            let mut rng = PixelRng::new(opts.seed, y as u64 * w as u64 + x as u64);
+            let pixel_sampler = sampler.pixel(y as u64 * w as u64 + x as u64);
             let mut pixel = PixelStats::default();
-            for _ in 0..opts.spp {
-                let [jx, jy] = rng.next_2d();
+            for s in 0..opts.spp {
+                let cs = pixel_sampler.camera_sample(s);
+                let [jx, jy] = cs.pixel_jitter();
                 let dir = camera.direction(x as f32 + jx, y as f32 + jy, w, h);
-                let l = estimator.radiance(camera.position, dir, &mut rng, &mut stats.rays);
+                let l = estimator.radiance(camera.position, dir, &cs, &mut stats.rays);
                 stats.camera_samples += 1;
                 match classify(l) {
                     SampleClass::Finite => {

@@ -1,4 +1,5 @@
-//! Benchmark grids: every configuration (selector × strategy × K×N × spp) rendered R times with
+//! Benchmark grids: every configuration (selector × strategy × K×N × sampler × spp) rendered R
+//! times with
 //! different seeds, at equal spp or at an equal time budget, and measured against a reference:
 //!     MSE, relMSE                 (see `metrics`), mean over repeats, with a 95% interval of
 //!                                 the MSE across seeds: mean ± 1.96·sd/√R (R ≥ 2)
@@ -17,6 +18,7 @@ use super::{mean_image, mean_variance, EstimatorChoice, SceneSetup};
 use crate::image::RgbImage;
 use crate::integrator::{render, PreparedScene, RenderOptions, Strategy};
 use crate::sampling::rng::derive_seed;
+use crate::sampling::sampler::SamplerKind;
 use crate::select::SelectorKind;
 
 /// What to run.
@@ -39,6 +41,7 @@ pub struct BenchRow {
     pub strategy: Strategy,
     pub k: u32,
     pub n: u32,
+    pub sampler: SamplerKind,
     /// Samples per pixel (with a time budget: the median reached over repeats).
     pub spp: u32,
     /// Median render seconds over repeats.
@@ -77,7 +80,7 @@ pub struct BenchRow {
 }
 
 impl BenchRow {
-    /// `selector:strategy:KxN:spp`, the form `--baseline` accepts.
+    /// `selector:strategy:KxN[:sampler]:spp`, the form `--baseline` accepts.
     pub fn label(&self) -> String {
         format!("{}:{}", estimator_label(&self.estimator()), self.spp)
     }
@@ -88,22 +91,40 @@ impl BenchRow {
             strategy: self.strategy,
             k: self.k,
             n: self.n,
+            sampler: self.sampler,
         }
     }
 }
 
-/// `selector:strategy:KxN` with the CLI's spellings.
+/// `selector:strategy:KxN[:sampler]` with the CLI's spellings; the sampler is named unless it
+/// is the default, independent.
 pub fn estimator_label(e: &EstimatorChoice) -> String {
     use clap::ValueEnum;
     let name =
         |v: Option<clap::builder::PossibleValue>| v.map_or("?".into(), |v| v.get_name().to_owned());
+    let sampler = match e.sampler {
+        SamplerKind::Independent => String::new(),
+        s => format!(":{}", name(s.to_possible_value())),
+    };
     format!(
-        "{}:{}:{}x{}",
+        "{}:{}:{}x{}{sampler}",
         name(e.selector.to_possible_value()),
         name(e.strategy.to_possible_value()),
         e.k,
         e.n
     )
+}
+
+/// A `--baseline` value split into its configuration label and the spp it pins, if any: a
+/// final `:number` after the `KxN` part.
+pub fn split_baseline(b: &str) -> (&str, Option<u32>) {
+    match b.rsplit_once(':') {
+        Some((config, spp)) if config.matches(':').count() >= 2 => match spp.parse() {
+            Ok(spp) => (config, Some(spp)),
+            Err(_) => (b, None),
+        },
+        _ => (b, None),
+    }
 }
 
 /// One render's measurements.
@@ -150,6 +171,8 @@ pub fn run(
                             height: setup.height,
                             spp: spp.unwrap_or(1),
                             seed: derive_seed(plan.seed, r as u64),
+                            sampler: e.sampler,
+                            first_sample: 0,
                             clamp: plan.clamp,
                         };
                         let (film, stats, seconds, spp) = match plan.time_budget {
@@ -215,6 +238,7 @@ fn aggregate(e: EstimatorChoice, plan: &BenchPlan, runs: Vec<Run>) -> BenchRow {
         strategy: e.strategy,
         k: e.k,
         n: e.n,
+        sampler: e.sampler,
         spp,
         seconds,
         seconds_min: secs.iter().cloned().fold(f64::INFINITY, f64::min),
@@ -250,7 +274,7 @@ pub fn median(xs: &mut [f64]) -> f64 {
     }
 }
 
-/// Fills each row's ratios against the baseline: `selector:strategy:KxN[:spp]`. Without
+/// Fills each row's ratios against the baseline: `selector:strategy:KxN[:sampler][:spp]`. Without
 /// `:spp` (and by default, with the first row's configuration), each row is compared with the
 /// baseline configuration at its own spp (or the first baseline row when that spp is missing).
 /// Errors when no row matches.
@@ -273,7 +297,7 @@ pub fn apply_baseline(rows: &mut [BenchRow], baseline: Option<&str>) -> Result<(
             known.join(", ")
         ));
     };
-    let pinned = wanted.matches(':').count() == 3;
+    let pinned = split_baseline(&wanted).1.is_some();
     for row in rows.iter_mut() {
         let (_, mse, eff, label) = if pinned {
             fallback.clone()
@@ -294,7 +318,7 @@ pub fn apply_baseline(rows: &mut [BenchRow], baseline: Option<&str>) -> Result<(
 /// What one estimator configuration needs to reach a target relMSE.
 #[derive(Clone, Debug, Serialize)]
 pub struct TargetAnswer {
-    /// `selector:strategy:KxN`.
+    /// `selector:strategy:KxN[:sampler]`.
     pub config: String,
     /// None when its measured relMSE does not fall with spp.
     pub cost: Option<TargetCost>,

@@ -17,16 +17,20 @@ use serde::{Deserialize, Serialize};
 use crate::film::Film;
 use crate::image::RgbImage;
 use crate::integrator::Strategy;
+use crate::sampling::sampler::SamplerKind;
 use crate::scene::{load_gltf, Camera, CameraChoice, Scene};
 use crate::select::SelectorKind;
 
-/// One estimator configuration: the selector, the strategy and K × N.
+/// One estimator configuration: the selector, the strategy, K × N and the sample sequence.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct EstimatorChoice {
     pub selector: SelectorKind,
     pub strategy: Strategy,
     pub k: u32,
     pub n: u32,
+    /// Absent from files written before samplers existed: those used independent numbers.
+    #[serde(default)]
+    pub sampler: SamplerKind,
 }
 
 /// A scene loaded for measurement, with the content hash that identifies its references.

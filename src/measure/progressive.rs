@@ -1,12 +1,11 @@
-//! Progressive rendering: passes with seeds derived from a base seed, merged into one film
-//! (Chan's parallel merge), until a sample count or a time budget is spent. The pass loop
+//! Progressive rendering: passes that continue each pixel's sample sequence, merged into one
+//! film (Chan's parallel merge), until a sample count or a time budget is spent. The pass loop
 //! takes its clock as a closure so tests can drive it with a fake one.
 
 use std::time::Instant;
 
 use crate::film::Film;
 use crate::integrator::{render, Estimator, RenderOptions, RenderStats};
-use crate::sampling::rng::derive_seed;
 use crate::scene::Camera;
 
 /// When to stop rendering passes.
@@ -59,9 +58,11 @@ pub struct Progressive {
     pub seconds: f64,
 }
 
-/// Renders passes of `pass_spp` with seeds `derive_seed(opts.seed, pass)` and merges them;
-/// `on_pass(count_so_far, elapsed_seconds)` is called after each pass (for progress display).
-/// The merged film is statistically one render of the total spp.
+/// Renders passes of `pass_spp` and merges them; `on_pass(count_so_far, elapsed_seconds)` is
+/// called after each pass (for progress display). Every pass keeps the seed and starts at
+/// camera sample `opts.first_sample` + the samples already rendered, so the passes draw
+/// distinct points: with the independent, Halton and Sobol samplers the merged film is
+/// exactly one render of the total spp; stratified and LHS stratify each pass on its own.
 pub fn render_progressive(
     estimator: &Estimator,
     camera: &Camera,
@@ -77,10 +78,10 @@ pub fn render_progressive(
         budget,
         pass_spp,
         || start.elapsed().as_secs_f64(),
-        |index, spp| {
+        |_, spp| {
             let pass_opts = RenderOptions {
                 spp,
-                seed: derive_seed(opts.seed, index as u64),
+                first_sample: opts.first_sample + so_far.spp as u64,
                 ..*opts
             };
             let (film, stats) = render(estimator, camera, &pass_opts);

@@ -15,6 +15,7 @@ use super::progressive::{render_progressive, Budget, PassCount};
 use super::{fnv1a64, mean_image, EstimatorChoice, SceneSetup};
 use crate::image::{read_exr_rgb, write_atomically, write_exr, RgbImage};
 use crate::integrator::{PreparedScene, RenderOptions, Strategy};
+use crate::sampling::sampler::SamplerKind;
 use crate::select::SelectorKind;
 
 /// The estimator references use by default: MIS of solid-angle light sampling and BSDF
@@ -24,6 +25,7 @@ pub const DEFAULT_ESTIMATOR: EstimatorChoice = EstimatorChoice {
     strategy: Strategy::Mis,
     k: 1,
     n: 1,
+    sampler: SamplerKind::Independent,
 };
 
 /// Samples per pixel of each progressive pass of a reference.
@@ -125,6 +127,8 @@ pub fn render_reference(
         height: setup.height,
         spp: PASS_SPP,
         seed: options.seed,
+        sampler: e.sampler,
+        first_sample: 0,
         clamp: None,
     };
     let p = render_progressive(

@@ -1,5 +1,6 @@
-//! Random numbers and the warps that turn them into points and directions.
+//! Random numbers, sample sequences, and the warps that turn them into points and directions.
 
 pub mod alias;
 pub mod rng;
+pub mod sampler;
 pub mod warp;

@@ -5,7 +5,7 @@ use rand_core::Rng;
 use rand_pcg::Pcg32;
 
 /// SplitMix64's finaliser: a bijective 64-bit mix (Steele, Lea & Flood 2014).
-fn mix64(mut z: u64) -> u64 {
+pub(crate) fn mix64(mut z: u64) -> u64 {
     z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
     z ^ (z >> 31)

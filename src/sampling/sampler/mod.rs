@@ -1,0 +1,274 @@
+//! Sample sequences: where every number a camera sample consumes comes from.
+//!
+//! A number is a pure function of (seed, pixel, dimension, sample index): no state is carried
+//! from one sample to the next, so the image is the same for any thread count and a render can
+//! continue the sequence of an earlier one (progressive passes). Each pixel's sequences are
+//! scrambled or permuted with seeds hashed from (seed, pixel, dimension), so pixels are
+//! decorrelated; every point is uniform on [0,1)^d, so every sampler is unbiased.
+//!
+//! # Dimension layout
+//!
+//! For camera sample s < spp of a render whose first camera sample is F (S = F + s), light slot
+//! k < K, point n < N on that light, and BSDF slot j < K·N:
+//!
+//! | dims | consumed by                               | index            | points per render |
+//! |------|-------------------------------------------|------------------|-------------------|
+//! | 0, 1 | pixel jitter                              | S                | spp               |
+//! | 2    | light choice (53 bits)                    | S·K + k          | spp·K             |
+//! | 3, 4 | point on the chosen light                 | (S·K + k)·N + n  | spp·K·N           |
+//! | 5    | BSDF lobe                                 | S·K·N + j        | spp·K·N           |
+//! | 6, 7 | BSDF or hemisphere direction              | S·K·N + j        | spp·K·N           |
+//! | 8, 9 | reserved: an environment light sampled apart from the K lights (same index as 3, 4) | | |
+//!
+//! So the K×N samples of one camera sample are distinct points of one well-distributed set per
+//! dimension group. Sobol reads the lobe (dim 5) as the third coordinate of the direction's
+//! point, and with N = 1 the light choice (dim 2) as the third coordinate of the point on the
+//! light: a discrete choice and the continuous sample it leads to then share one 3D point, so
+//! their interaction is integrated at the quasi-Monte Carlo rate too (padding them apart
+//! leaves an MSE ∝ 1/spp term). An environment light chosen as one of the K lights takes its direction
+//! from dims 3, 4 like a point on any other light.
+//!
+//! Sequences (independent, halton, sobol) index by the absolute S, so a progressive pass that
+//! starts at F = the samples already rendered continues the same sequence. Stratified and LHS
+//! stratify each render's own points (index s·… relative to the render, over the count in the
+//! last column), with permutations seeded by F as well: every pass is its own stratified set.
+//!
+//! The 32-bit sequences give 24-bit f32 coordinates; the light choice, which may pick among
+//! millions of lights, appends 21 hashed random bits to the sequence's 32 to fill an f64
+//! mantissa, so the choice stays exactly uniform.
+
+mod halton;
+mod independent;
+mod lhs;
+mod scramble;
+mod sobol;
+mod stratified;
+
+use scramble::{hash, subseed};
+
+/// The dimension layout (see the module doc): the first dimension of each group.
+const PIXEL: u64 = 0;
+const LIGHT_CHOICE: u64 = 2;
+const LIGHT_POINT: u64 = 3;
+const BSDF_LOBE: u64 = 5;
+const BSDF_DIRECTION: u64 = 6;
+
+/// Where a camera sample's numbers come from.
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    Default,
+    PartialEq,
+    Eq,
+    clap::ValueEnum,
+    serde::Serialize,
+    serde::Deserialize,
+)]
+#[serde(rename_all = "kebab-case")]
+pub enum SamplerKind {
+    /// Independent uniform numbers (plain Monte Carlo: MSE ∝ 1/spp).
+    #[default]
+    Independent,
+    /// Jittered strata: each point in its own interval (1D) or grid cell (2D) of the render's
+    /// points.
+    Stratified,
+    /// Latin hypercube (N-rooks): each coordinate stratified on its own.
+    Lhs,
+    /// Owen-scrambled Halton: a prime base per dimension.
+    Halton,
+    /// Owen-scrambled Sobol, padded 2D/3D groups with shuffled indices (Burley 2020).
+    Sobol,
+}
+
+/// A render's sampler: the kind, the seed and the counts its stratification needs.
+#[derive(Clone, Copy, Debug)]
+pub struct Sampler {
+    kind: SamplerKind,
+    seed: u64,
+    first_sample: u64,
+    spp: u64,
+    k: u64,
+    n: u64,
+}
+
+impl Sampler {
+    /// Camera samples `first_sample .. first_sample + spp` of every pixel, each with K lights of
+    /// N points (or K·N BSDF or hemisphere directions).
+    pub fn new(kind: SamplerKind, seed: u64, first_sample: u64, spp: u32, k: u32, n: u32) -> Self {
+        Sampler {
+            kind,
+            seed,
+            first_sample,
+            spp: spp as u64,
+            k: k as u64,
+            n: n as u64,
+        }
+    }
+
+    /// The sequences of pixel `pixel` (row-major index).
+    pub fn pixel(&self, pixel: u64) -> PixelSampler {
+        let key = hash(self.seed, pixel);
+        let key = match self.kind {
+            SamplerKind::Stratified | SamplerKind::Lhs => hash(key, !self.first_sample),
+            _ => key,
+        };
+        PixelSampler {
+            sampler: *self,
+            key,
+        }
+    }
+}
+
+/// One pixel's sequences.
+#[derive(Clone, Copy, Debug)]
+pub struct PixelSampler {
+    sampler: Sampler,
+    key: u64,
+}
+
+/// Point `slot` of camera sample s in a dimension group with `per_sample` points per camera
+/// sample: its seed, index within the render (`local` of `count`) and absolute index.
+struct Point {
+    dim: u64,
+    seed: u64,
+    local: u64,
+    count: u64,
+    absolute: u64,
+}
+
+impl PixelSampler {
+    /// Camera sample `s` (0 ≤ s < spp) of this render.
+    #[inline]
+    pub fn camera_sample(&self, s: u32) -> CameraSample<'_> {
+        debug_assert!((s as u64) < self.sampler.spp);
+        CameraSample {
+            pixel: self,
+            s: s as u64,
+        }
+    }
+
+    #[inline]
+    fn point(&self, dim: u64, per_sample: u64, s: u64, slot: u64) -> Point {
+        debug_assert!(slot < per_sample);
+        let sm = &self.sampler;
+        Point {
+            dim,
+            seed: subseed(self.key, dim),
+            local: s * per_sample + slot,
+            count: sm.spp * per_sample,
+            absolute: (sm.first_sample + s) * per_sample + slot,
+        }
+    }
+
+    /// One coordinate as a fraction of 2^32.
+    #[inline]
+    fn get_1d(&self, p: &Point) -> u32 {
+        match self.sampler.kind {
+            SamplerKind::Independent => independent::sample_1d(p.absolute, p.seed),
+            SamplerKind::Stratified | SamplerKind::Lhs => {
+                stratified::sample_1d(p.local, p.count, p.seed)
+            }
+            SamplerKind::Halton => {
+                halton::sample(p.absolute, halton::PRIMES[p.dim as usize], p.seed)
+            }
+            SamplerKind::Sobol => sobol::sample_1d(p.absolute, p.seed),
+        }
+    }
+
+    /// Two coordinates (dims `p.dim`, `p.dim + 1`) as fractions of 2^32.
+    #[inline]
+    fn get_2d(&self, p: &Point) -> [u32; 2] {
+        match self.sampler.kind {
+            SamplerKind::Independent => independent::sample_2d(p.absolute, p.seed),
+            SamplerKind::Stratified => stratified::sample_2d(p.local, p.count, p.seed),
+            SamplerKind::Lhs => lhs::sample_2d(p.local, p.count, p.seed),
+            SamplerKind::Halton => {
+                let base = |d: u64| halton::PRIMES[d as usize];
+                [
+                    halton::sample(p.absolute, base(p.dim), p.seed),
+                    halton::sample(p.absolute, base(p.dim + 1), subseed(self.key, p.dim + 1)),
+                ]
+            }
+            SamplerKind::Sobol => sobol::sample_2d(p.absolute, p.seed),
+        }
+    }
+}
+
+/// The numbers of one camera sample, by use (see the layout in the module doc).
+#[derive(Clone, Copy)]
+pub struct CameraSample<'a> {
+    pixel: &'a PixelSampler,
+    s: u64,
+}
+
+/// A fraction of 2^32 as an f32 in [0, 1) with 24 bits (never 1.0).
+#[inline]
+fn to_f32(x: u32) -> f32 {
+    (x >> 8) as f32 * (1.0 / 16_777_216.0)
+}
+
+impl CameraSample<'_> {
+    /// The point inside the pixel, in [0,1)².
+    #[inline]
+    pub fn pixel_jitter(&self) -> [f32; 2] {
+        let p = self.pixel.point(PIXEL, 1, self.s, 0);
+        self.pixel.get_2d(&p).map(to_f32)
+    }
+
+    /// The number that chooses light slot k's light, in [0, 1) with 53 bits.
+    #[inline]
+    pub fn light_choice(&self, k: u32) -> f64 {
+        let sm = &self.pixel.sampler;
+        let (p, high) = if sm.kind == SamplerKind::Sobol && sm.n == 1 {
+            let p = self.pixel.point(LIGHT_POINT, sm.k, self.s, k as u64);
+            let third = sobol::third(p.absolute, p.seed);
+            (p, third)
+        } else {
+            let p = self.pixel.point(LIGHT_CHOICE, sm.k, self.s, k as u64);
+            let x = self.pixel.get_1d(&p);
+            (p, x)
+        };
+        let high = high as u64;
+        let low = hash(p.seed ^ 0xa076_1d64_78bd_642f, p.absolute) >> 43;
+        ((high << 21) | low) as f64 * (1.0 / 9_007_199_254_740_992.0)
+    }
+
+    /// The 2D number that places point n on light slot k's light.
+    #[inline]
+    pub fn light_point(&self, k: u32, n: u32) -> [f32; 2] {
+        let sm = &self.pixel.sampler;
+        let slot = k as u64 * sm.n + n as u64;
+        let p = self.pixel.point(LIGHT_POINT, sm.k * sm.n, self.s, slot);
+        self.pixel.get_2d(&p).map(to_f32)
+    }
+
+    /// The number that chooses BSDF slot j's lobe.
+    #[inline]
+    pub fn bsdf_lobe(&self, j: u32) -> f32 {
+        let sm = &self.pixel.sampler;
+        let x = if sm.kind == SamplerKind::Sobol {
+            let p = self
+                .pixel
+                .point(BSDF_DIRECTION, sm.k * sm.n, self.s, j as u64);
+            sobol::third(p.absolute, p.seed)
+        } else {
+            let p = self.pixel.point(BSDF_LOBE, sm.k * sm.n, self.s, j as u64);
+            self.pixel.get_1d(&p)
+        };
+        to_f32(x)
+    }
+
+    /// The 2D number that gives BSDF (or hemisphere) slot j's direction.
+    #[inline]
+    pub fn bsdf_direction(&self, j: u32) -> [f32; 2] {
+        let sm = &self.pixel.sampler;
+        let p = self
+            .pixel
+            .point(BSDF_DIRECTION, sm.k * sm.n, self.s, j as u64);
+        self.pixel.get_2d(&p).map(to_f32)
+    }
+}
+
+#[cfg(test)]
+mod tests;
