@@ -136,7 +136,8 @@ fn render_scene(
     let o = &args.options;
     let mut seconds = Timings::default();
     let t = Instant::now();
-    let scene = load_gltf(&o.scene, &o.camera.clone().unwrap_or_default())?;
+    let scene = load_gltf(&o.scene, &o.camera.clone().unwrap_or_default())?
+        .with_environment(o.environment()?);
     seconds.load = t.elapsed().as_secs_f64();
 
     let camera = camera_or_framing(&scene, &o.scene);

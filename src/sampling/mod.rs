@@ -1,5 +1,6 @@
 //! Random numbers and the warps that turn them into points and directions.
 
 pub mod alias;
+pub mod distribution;
 pub mod rng;
 pub mod warp;

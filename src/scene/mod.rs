@@ -6,13 +6,18 @@
 
 mod camera;
 pub mod generate;
+pub mod generate_sky;
 mod gltf_load;
 pub mod gltf_write;
 
 pub use camera::Camera;
 pub use gltf_load::{load_gltf, load_gltf_bytes, CameraChoice, LoadError};
 
+use std::sync::Arc;
+
 use glam::{Vec2, Vec3};
+
+use crate::lights::EnvironmentMap;
 
 /// glTF metallic-roughness material, reduced to constant factors.
 #[derive(Clone, Debug, PartialEq)]
@@ -163,6 +168,9 @@ pub struct Scene {
     /// The camera the file chose (or None when the file has no perspective camera).
     pub camera: Option<Camera>,
     pub punctual: Vec<PunctualLight>,
+    /// The environment map lighting the scene from infinitely far away (given on the command
+    /// line, not by the glTF file).
+    pub environment: Option<Arc<EnvironmentMap>>,
     pub stats: LoadStats,
 }
 
@@ -201,6 +209,7 @@ impl Scene {
             materials,
             camera,
             punctual: Vec::new(),
+            environment: None,
             stats,
         })
     }
@@ -218,6 +227,12 @@ impl Scene {
         }
         self.punctual = lights;
         Ok(self)
+    }
+
+    /// Lights the scene with an environment map (None: no environment).
+    pub fn with_environment(mut self, environment: Option<Arc<EnvironmentMap>>) -> Scene {
+        self.environment = environment;
+        self
     }
 
     pub fn material_of(&self, triangle: usize) -> &Material {

@@ -2,7 +2,9 @@
 //! unshadowed contribution to a diffuse receiver at (p, n), in luminance:
 //!     triangle: luminance(L) · Ω⊥ (Lambert's polygon formula, clipped to the receiver's upper
 //!               hemisphere; zero behind a one-sided emitter),
-//!     point/spot: luminance(I · falloff) · max(0, n·ω) / r²,   directional: luminance(E) · max(0, n·ω).
+//!     point/spot: luminance(I · falloff) · max(0, n·ω) / r²,   directional: luminance(E) · max(0, n·ω),
+//!     environment: ∫ luminance(L) dω over the whole sphere — a bound (≥ the irradiance on any
+//!               receiver, 4× it under a uniform sky), not the exact hemisphere integral.
 //! It ignores visibility and the BRDF's shape: the bound any visibility-blind selector can approach.
 
 use std::cell::RefCell;
@@ -20,6 +22,7 @@ pub fn weight(light: &Light, ctx: &ShadingContext) -> f64 {
             let v = [t.p0, t.p0 + t.e1, t.p0 + t.e2];
             luminance(t.radiance) as f64 * projected_solid_angle(ctx.p, ctx.n, v)
         }
+        Light::Environment(e) => e.map.luminance_integral(),
         Light::Point(_) | Light::Directional(_) => match light.sample_delta(ctx.p) {
             Some(s) => luminance(s.li) as f64 * ctx.n.dot(s.wi).max(0.0) as f64,
             None => 0.0,
