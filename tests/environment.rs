@@ -4,6 +4,8 @@
 //! sampling of the map through every selector, MIS). A second light — an emissive triangle
 //! under the plane that cannot reach its upper side — makes each selector split its probability
 //! between the sky and a light that contributes nothing, so p_l(env) must be right too.
+//! Under a sun-and-sky map the plane's irradiance is the exact texel sum
+//! E = Σ_ij L_ij ∫_texel cosθ dω = Σ_ij L_ij · (π/W)·(sin²θ_{j+1} − sin²θ_j) over the upper rows.
 
 use std::sync::Arc;
 
@@ -11,16 +13,29 @@ use glam::{DVec3, Mat4, Vec3};
 use manylights::image::RgbImage;
 use manylights::integrator::{render, PreparedScene, RenderOptions, Strategy};
 use manylights::lights::EnvironmentMap;
-use manylights::scene::{Camera, Material, Scene, Triangle};
+use manylights::scene::{generate_sky, Camera, Material, Scene, Triangle};
 use manylights::select::SelectorKind;
 
 const RHO: f32 = 0.6;
 const SKY: [f32; 3] = [0.5, 1.0, 2.0];
 const SIZE: u32 = 12;
 
+const HEMISPHERE_AND_BSDF: [Strategy; 3] = [
+    Strategy::HemisphereUniform,
+    Strategy::HemisphereCosine,
+    Strategy::Bsdf,
+];
+
+const SELECTORS: [SelectorKind; 4] = [
+    SelectorKind::Uniform,
+    SelectorKind::Power,
+    SelectorKind::Bvh,
+    SelectorKind::Oracle,
+];
+
 /// A 4 m plane at y = 0 facing +Y, a camera 2 m above looking straight down (it sees only the
-/// plane), an emissive triangle facing down 0.5 m below the plane, and a constant 8×4 sky.
-fn scene() -> Scene {
+/// plane), an emissive triangle facing down 0.5 m below the plane, and the sky `env`.
+fn scene(env: EnvironmentMap) -> Scene {
     let materials = vec![
         Material::lambert(Vec3::splat(RHO)),
         Material::emitter(Vec3::splat(50.0), false),
@@ -43,28 +58,23 @@ fn scene() -> Scene {
     let look_down = Mat4::from_translation(Vec3::new(0.0, 2.0, 0.0))
         * Mat4::from_rotation_x(-std::f32::consts::FRAC_PI_2);
     let camera = Camera::from_world_matrix("down".into(), &look_down, 0.6, None).unwrap();
-    let sky = RgbImage {
-        width: 8,
-        height: 4,
-        pixels: vec![SKY; 32],
-    };
-    let env = EnvironmentMap::from_image(&sky, 1.0, 33.0).unwrap();
     Scene::new(triangles, materials, Some(camera))
         .unwrap()
         .with_environment(Some(Arc::new(env)))
 }
 
-/// Renders and checks the image mean of each channel against ρ·L within 5σ (σ from the pixels'
-/// variances; estimators with zero variance must then hit ρ·L to float precision).
-fn check(selector: SelectorKind, strategy: Strategy, spp: u32) {
-    let prepared = PreparedScene::new(scene(), selector);
+/// Renders at 64 spp and checks the image mean of each channel against `expected` within 5σ
+/// (σ from the pixels' variances; estimators with zero variance must then hit it to float
+/// precision).
+fn check(env: EnvironmentMap, expected: DVec3, selector: SelectorKind, strategy: Strategy) {
+    let prepared = PreparedScene::new(scene(env), selector);
     assert_eq!(prepared.lights.len(), 2);
     let estimator = prepared.estimator(strategy, 1, 1);
     let camera = prepared.scene.camera.clone().unwrap();
     let opts = RenderOptions {
         width: SIZE,
         height: SIZE,
-        spp,
+        spp: 64,
         seed: 3,
         clamp: None,
     };
@@ -78,43 +88,78 @@ fn check(selector: SelectorKind, strategy: Strategy, spp: u32) {
         .map(|p| p.variance_of_mean())
         .sum::<DVec3>()
         / (pixels * pixels);
-    let expected = (Vec3::from_array(SKY) * RHO).as_dvec3();
     for c in 0..3 {
         let sigma = var[c].sqrt();
         assert!(
             (mean[c] - expected[c]).abs() < 5.0 * sigma + 1e-5 * expected[c],
-            "{selector:?} {strategy:?}: channel {c} = {} ± {sigma}, expected ρ·L = {}",
+            "{selector:?} {strategy:?}: channel {c} = {} ± {sigma}, expected {}",
             mean[c],
             expected[c]
         );
     }
 }
 
+/// A constant 8×4 sky of radiance SKY, turned by 33° (which changes nothing), and the plane's
+/// exitant radiance under it, ρ·L.
+fn constant_sky() -> (EnvironmentMap, DVec3) {
+    let sky = RgbImage {
+        width: 8,
+        height: 4,
+        pixels: vec![SKY; 32],
+    };
+    let map = EnvironmentMap::from_image(&sky, 1.0, 33.0).unwrap();
+    (map, (Vec3::from_array(SKY) * RHO).as_dvec3())
+}
+
+/// The 32×16 sun-and-sky map turned by 70°, and ρ/π·E of an upward plane under it, E summed
+/// over the upper 8 rows' texels (each row's ∫cosθ dω = (π/W)·(sin²θ_{j+1} − sin²θ_j)).
+fn sun_and_sky() -> (EnvironmentMap, DVec3) {
+    let (w, h) = (32, 16);
+    let image = generate_sky::sun_and_sky(w, h);
+    let sin2 = |j: usize| (std::f64::consts::PI * j as f64 / h as f64).sin().powi(2);
+    let mut irradiance = DVec3::ZERO;
+    for j in 0..h / 2 {
+        let projected = std::f64::consts::PI / w as f64 * (sin2(j + 1) - sin2(j));
+        for i in 0..w {
+            irradiance += DVec3::from_array(image.pixels[j * w + i].map(f64::from)) * projected;
+        }
+    }
+    let map = EnvironmentMap::from_image(&image, 1.0, 70.0).unwrap();
+    (map, irradiance * RHO as f64 / std::f64::consts::PI)
+}
+
 #[test]
 fn hemisphere_and_bsdf_sampling_see_a_constant_sky() {
-    for strategy in [
-        Strategy::HemisphereUniform,
-        Strategy::HemisphereCosine,
-        Strategy::Bsdf,
-    ] {
-        check(SelectorKind::Power, strategy, 64);
+    for strategy in HEMISPHERE_AND_BSDF {
+        let (map, expected) = constant_sky();
+        check(map, expected, SelectorKind::Power, strategy);
     }
 }
 
 #[test]
 fn light_sampling_of_the_map_gives_e_equal_pi_l_with_every_selector() {
-    for selector in [
-        SelectorKind::Uniform,
-        SelectorKind::Power,
-        SelectorKind::Bvh,
-        SelectorKind::Oracle,
-    ] {
+    for selector in SELECTORS {
         for strategy in [
             Strategy::LightArea,
             Strategy::LightSolidAngle,
             Strategy::Mis,
         ] {
-            check(selector, strategy, 64);
+            let (map, expected) = constant_sky();
+            check(map, expected, selector, strategy);
+        }
+    }
+}
+
+#[test]
+fn every_strategy_gets_the_exact_irradiance_under_a_sun_and_sky() {
+    for strategy in HEMISPHERE_AND_BSDF {
+        let (map, expected) = sun_and_sky();
+        check(map, expected, SelectorKind::Power, strategy);
+    }
+    for selector in SELECTORS {
+        for strategy in [Strategy::LightArea, Strategy::Mis] {
+            let (map, expected) = sun_and_sky();
+            check(map, expected, selector, strategy);
         }
     }
 }
