@@ -21,6 +21,7 @@ use std::sync::Arc;
 use glam::{DVec3, Vec3};
 
 use super::luminance;
+use super::sky_irradiance::IrradianceTable;
 use crate::image::{read_exr_rgb, RgbImage};
 use crate::sampling::distribution::Distribution2D;
 
@@ -54,6 +55,8 @@ pub struct EnvironmentMap {
     rotation_degrees: f32,
     /// ∫ L dω over the sphere per channel, the exact texel sum Σ L_ij·Ω_j.
     integral: DVec3,
+    /// Unshadowed irradiance (luminance) onto a receiver of any normal, for the oracle.
+    irradiance: IrradianceTable,
 }
 
 impl EnvironmentMap {
@@ -113,7 +116,9 @@ impl EnvironmentMap {
             }
         }
         let (sin, cos) = rotate_degrees.to_radians().sin_cos();
+        let luminances: Vec<f32> = texels.iter().map(|l| luminance(*l)).collect();
         Ok(EnvironmentMap {
+            irradiance: IrradianceTable::new(&luminances, width, height),
             width,
             height,
             distribution: Distribution2D::new(&weights, width, height),
@@ -151,14 +156,28 @@ impl EnvironmentMap {
         0.2126 * self.integral.x + 0.7152 * self.integral.y + 0.0722 * self.integral.z
     }
 
+    /// Unshadowed irradiance in luminance, ∫ luminance(L(ω))·max(0, n·ω) dω, onto a receiver
+    /// of unit world normal `n` (a table accurate to a few percent; see `sky_irradiance`).
+    pub fn irradiance(&self, n: Vec3) -> f64 {
+        self.irradiance.at(self.to_map_frame(n))
+    }
+
+    /// R_y(−α)·w: a world direction in the map's frame.
+    #[inline]
+    fn to_map_frame(&self, w: Vec3) -> DVec3 {
+        let (sin, cos) = self.rotation;
+        DVec3::new(
+            (w.x * cos - w.z * sin) as f64,
+            w.y as f64,
+            (w.x * sin + w.z * cos) as f64,
+        )
+    }
+
     /// The texel (column, row) that unit world direction `w` falls in, and sinθ (f64).
     #[inline]
     fn texel_of(&self, w: Vec3) -> (usize, usize, f64) {
-        let (sin, cos) = self.rotation;
-        // Into the map's frame: R_y(−α)·w.
-        let x = (w.x * cos - w.z * sin) as f64;
-        let z = (w.x * sin + w.z * cos) as f64;
-        let y = (w.y as f64).clamp(-1.0, 1.0);
+        let DVec3 { x, y, z } = self.to_map_frame(w);
+        let y = y.clamp(-1.0, 1.0);
         let phi = (-x).atan2(z);
         let u = if phi < 0.0 { phi + 2.0 * PI } else { phi } / (2.0 * PI);
         let v = y.acos() / PI;
@@ -167,15 +186,13 @@ impl EnvironmentMap {
         (column, row, (x * x + z * z).sqrt())
     }
 
-    /// World direction of map coordinates (u, v) ∈ [0,1)².
+    /// World direction of map coordinates (u, v) ∈ [0,1)², and sinθ.
     #[inline]
     fn direction(&self, u: f64, v: f64) -> (Vec3, f64) {
-        let (sin_phi, cos_phi) = (2.0 * PI * u).sin_cos();
-        let (sin_theta, cos_theta) = (PI * v).sin_cos();
-        let (x, z) = (-sin_theta * sin_phi, sin_theta * cos_phi);
+        let DVec3 { x, y, z } = map_direction(u, v);
         let (sin, cos) = (self.rotation.0 as f64, self.rotation.1 as f64);
-        let w = DVec3::new(x * cos + z * sin, cos_theta, -x * sin + z * cos);
-        (w.as_vec3(), sin_theta)
+        let w = DVec3::new(x * cos + z * sin, y, -x * sin + z * cos);
+        (w.as_vec3(), (x * x + z * z).sqrt())
     }
 
     /// L(ω) arriving from unit direction `w` (pointing away from the receiver).
@@ -210,6 +227,15 @@ impl EnvironmentMap {
         }
         (self.distribution.pdf(column, row) / (2.0 * PI * PI * sin_theta)) as f32
     }
+}
+
+/// The map's own direction at (u, v): θ = π·v from +Y, φ = 2π·u,
+/// d = (−sinθ·sinφ, cosθ, sinθ·cosφ).
+#[inline]
+pub fn map_direction(u: f64, v: f64) -> DVec3 {
+    let (sin_phi, cos_phi) = (2.0 * PI * u).sin_cos();
+    let (sin_theta, cos_theta) = (PI * v).sin_cos();
+    DVec3::new(-sin_theta * sin_phi, cos_theta, sin_theta * cos_phi)
 }
 
 /// Solid angle of a texel of row j: (2π/W)·(cos θ_j − cos θ_{j+1}), θ_j = π·j/H.
@@ -273,6 +299,13 @@ mod tests {
         let turned = test_map(90.0);
         let w = Vec3::new(-1.0, -0.01, 0.0).normalize();
         assert_eq!(turned.texel_of(w).0, 8);
+        // The oracle's irradiance turns with the map: the turned map's E at n is the plain
+        // map's at R_y(−90°)·n.
+        for n in [Vec3::X, Vec3::new(0.3, 0.5, -0.8).normalize(), -Vec3::Z] {
+            let back = Vec3::new(-n.z, n.y, n.x);
+            let (a, b) = (turned.irradiance(n), map.irradiance(back));
+            assert!((a - b).abs() < 1e-6 * b, "{a} vs {b} (equal up to f32 rounding)");
+        }
         // direction() and texel_of() are inverse.
         for (u, v) in [(0.03, 0.2), (0.51, 0.77), (0.97, 0.5)] {
             for m in [&map, &turned] {

@@ -5,6 +5,7 @@ pub mod environment;
 pub mod polygon;
 pub mod power_stats;
 pub mod punctual;
+pub mod sky_irradiance;
 pub mod spherical_triangle;
 pub mod triangle;
 

@@ -10,6 +10,7 @@ use glam::Vec3;
 
 use super::gltf_write::{look_at_rotation, GltfBuilder, Material, NodeTransform};
 use crate::image::RgbImage;
+use crate::lights::environment::map_direction;
 
 /// Unit direction toward the sun: 35° above the horizon, to the right of −Z (toward +X).
 pub fn sun_direction() -> Vec3 {
@@ -54,11 +55,9 @@ pub fn sun_and_sky(width: usize, height: usize) -> RgbImage {
             let mut sum = Vec3::ZERO;
             for a in 0..SUB {
                 for b in 0..SUB {
-                    let u = (i as f32 + (a as f32 + 0.5) / SUB as f32) / width as f32;
-                    let v = (j as f32 + (b as f32 + 0.5) / SUB as f32) / height as f32;
-                    let (sin_phi, cos_phi) = (2.0 * std::f32::consts::PI * u).sin_cos();
-                    let (sin_theta, cos_theta) = (std::f32::consts::PI * v).sin_cos();
-                    let w = Vec3::new(-sin_theta * sin_phi, cos_theta, sin_theta * cos_phi);
+                    let u = (i as f64 + (a as f64 + 0.5) / SUB as f64) / width as f64;
+                    let v = (j as f64 + (b as f64 + 0.5) / SUB as f64) / height as f64;
+                    let w = map_direction(u, v).as_vec3();
                     sum += if w.dot(sun) >= cos_sun {
                         Vec3::from_array(SUN_RADIANCE)
                     } else {
@@ -207,11 +206,9 @@ mod tests {
             let omega =
                 2.0 * std::f64::consts::PI / w as f64 * (theta(j).cos() - theta(j + 1).cos());
             for i in 0..w {
-                let u = (i as f32 + 0.5) / w as f32;
-                let v = (j as f32 + 0.5) / h as f32;
-                let (sp, cp) = (2.0 * std::f32::consts::PI * u).sin_cos();
-                let (st, ct) = (std::f32::consts::PI * v).sin_cos();
-                let d = Vec3::new(-st * sp, ct, st * cp);
+                let u = (i as f64 + 0.5) / w as f64;
+                let v = (j as f64 + 0.5) / h as f64;
+                let d = map_direction(u, v).as_vec3();
                 let cos = d.dot(n).max(0.0) as f64;
                 let l = crate::lights::luminance(Vec3::from_array(image.pixels[j * w + i])) as f64;
                 if d.dot(n) > 0.99 {
