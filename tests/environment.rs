@@ -279,5 +279,7 @@ mod cli {
         let summary: serde_json::Value =
             serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
         assert_eq!(summary["lights"], 3);
+        assert_eq!(summary["environment"]["width"], 256);
+        assert_eq!(summary["environment"]["rotate_degrees"], -90.0);
     }
 }

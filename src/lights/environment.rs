@@ -304,7 +304,10 @@ mod tests {
         for n in [Vec3::X, Vec3::new(0.3, 0.5, -0.8).normalize(), -Vec3::Z] {
             let back = Vec3::new(-n.z, n.y, n.x);
             let (a, b) = (turned.irradiance(n), map.irradiance(back));
-            assert!((a - b).abs() < 1e-6 * b, "{a} vs {b} (equal up to f32 rounding)");
+            assert!(
+                (a - b).abs() < 1e-6 * b,
+                "{a} vs {b} (equal up to f32 rounding)"
+            );
         }
         // direction() and texel_of() are inverse.
         for (u, v) in [(0.03, 0.2), (0.51, 0.77), (0.97, 0.5)] {
