@@ -283,3 +283,36 @@ mod cli {
         assert_eq!(summary["environment"]["rotate_degrees"], -90.0);
     }
 }
+
+#[test]
+fn reference_caches_tell_skies_apart() {
+    use manylights::measure::SceneSetup;
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.glb");
+    let load = || SceneSetup::load(&path, None, 8, None).unwrap();
+    let sky = |scale: f32, rotate: f32| {
+        let (map, _) = sun_and_sky();
+        let image = RgbImage {
+            width: map.width(),
+            height: map.height(),
+            pixels: map.texels().iter().map(|t| t.to_array()).collect(),
+        };
+        Some(Arc::new(
+            EnvironmentMap::from_image(&image, scale, rotate).unwrap(),
+        ))
+    };
+    let plain = load().hash;
+    let hashes = [
+        load().with_environment(None).hash,
+        load().with_environment(sky(1.0, 0.0)).hash,
+        load().with_environment(sky(2.0, 0.0)).hash,
+        load().with_environment(sky(1.0, 10.0)).hash,
+    ];
+    assert_eq!(hashes[0], plain);
+    for i in 1..4 {
+        assert_ne!(hashes[i], plain);
+        for j in i + 1..4 {
+            assert_ne!(hashes[i], hashes[j], "maps {i} and {j}");
+        }
+    }
+    assert_eq!(load().with_environment(sky(2.0, 0.0)).hash, hashes[2]);
+}
