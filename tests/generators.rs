@@ -293,7 +293,7 @@ fn gen_refuses_bad_arguments_with_a_usage_error() {
 }
 
 /// Every committed scene with the `gen` arguments that rebuild it (as scenes/README.md says).
-const COMMITTED: [(&str, &[&str]); 7] = [
+const COMMITTED: [(&str, &[&str]); 8] = [
     ("cornell.glb", &["cornell"]),
     (
         "cornell64.glb",
@@ -307,6 +307,7 @@ const COMMITTED: [(&str, &[&str]); 7] = [
         "textured.glb",
         &["textured", "--lights", "512", "--seed", "1"],
     ),
+    ("outdoor.glb", &["outdoor"]),
 ];
 
 #[test]

@@ -1,10 +1,15 @@
 //! Every selector's choices follow its own pmf, and the light BVH never rules out a light that
-//! contributes. Lights: a 2,000-light town plus a point, a spot and a directional light.
+//! contributes. Lights: a 2,000-light town plus a point, a spot and a directional light and a
+//! sun-and-sky environment map.
+
+use std::sync::Arc;
 
 use glam::Vec3;
-use manylights::lights::Lights;
+use manylights::lights::{EnvironmentMap, Lights};
 use manylights::sampling::rng::PixelRng;
-use manylights::scene::{generate, load_gltf, CameraChoice, PunctualKind, PunctualLight, Scene};
+use manylights::scene::{
+    generate, generate_sky, load_gltf, CameraChoice, PunctualKind, PunctualLight, Scene,
+};
 use manylights::select::{oracle, LightSelector, SelectorKind, ShadingContext};
 
 fn town_with_punctual_lights() -> Scene {
@@ -37,6 +42,9 @@ fn town_with_punctual_lights() -> Scene {
             },
         ])
         .unwrap()
+        .with_environment(Some(Arc::new(
+            EnvironmentMap::from_image(&generate_sky::sun_and_sky(32, 16), 0.2, 20.0).unwrap(),
+        )))
 }
 
 /// Shading points spread over the town's bounds with random normals (some on the ground).

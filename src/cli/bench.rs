@@ -173,7 +173,8 @@ pub fn run_bench(args: &BenchArgs) -> anyhow::Result<()> {
             .into());
         }
     }
-    let setup = SceneSetup::load(&o.scene, o.camera.as_ref(), o.width, o.height)?;
+    let setup = SceneSetup::load(&o.scene, o.camera.as_ref(), o.width, o.height)?
+        .with_environment(o.environment()?);
     let pool = o.thread_pool()?;
     let reference =
         pool.install(|| obtain_reference(&setup, args.reference.as_deref(), args.reference_spp))?;

@@ -64,7 +64,8 @@ pub fn run_converge(args: &ConvergeArgs) -> anyhow::Result<bool> {
         clamp: o.clamp,
         tolerance: args.tolerance,
     };
-    let setup = SceneSetup::load(&o.scene, o.camera.as_ref(), o.width, o.height)?;
+    let setup = SceneSetup::load(&o.scene, o.camera.as_ref(), o.width, o.height)?
+        .with_environment(o.environment()?);
     let pool = o.thread_pool()?;
     let max_spp = distinct.last().copied().unwrap_or(1);
     let reference_spp = args

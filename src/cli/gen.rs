@@ -1,14 +1,17 @@
 //! `manylights gen NAME -o FILE.glb|.gltf [--lights N] [--seed S]`: write a built-in scene as
-//! glTF 2.0. `--lights` counts emissive triangles; each generator states which counts it takes,
-//! and any other is a usage error (exit 2).
+//! glTF 2.0, or `manylights gen sky -o FILE.exr`: the sun-and-sky environment map. `--lights`
+//! counts emissive triangles; each generator states which counts it takes, and any other is a
+//! usage error (exit 2).
 
 use std::path::PathBuf;
 
 use clap::{Args, ValueEnum};
 
+use super::render::check_output_path;
 use super::UsageError;
-use crate::scene::generate;
+use crate::image::write_exr;
 use crate::scene::gltf_write::GltfBuilder;
+use crate::scene::{generate, generate_sky};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum SceneName {
@@ -29,12 +32,16 @@ pub enum SceneName {
     /// A ceiling panel with a mostly black emissive texture: --lights = 2·n² triangles
     /// (default 512 = 2·16²).
     Textured,
+    /// Boxes on a ground plane with one small lamp, for an environment map (--env).
+    Outdoor,
+    /// A 256×128 equirectangular sun-and-sky environment map (OpenEXR, -o FILE.exr).
+    Sky,
 }
 
 #[derive(Args, Debug)]
 pub struct GenArgs {
     pub name: SceneName,
-    /// Output file: .glb (binary) or .gltf (JSON with the buffer embedded as a data URI).
+    /// Output file: .glb (binary) or .gltf (JSON with an embedded buffer); .exr for sky.
     #[arg(short, long)]
     pub output: PathBuf,
     /// Emissive triangles (see each scene for the counts it takes).
@@ -45,6 +52,15 @@ pub struct GenArgs {
 }
 
 pub fn run(args: &GenArgs) -> anyhow::Result<()> {
+    if args.name == SceneName::Sky {
+        if args.lights.is_some() {
+            return Err(UsageError("gen sky: an environment map has no --lights".into()).into());
+        }
+        check_output_path(&args.output, "exr")?;
+        write_exr(&args.output, &generate_sky::sun_and_sky(256, 128), None)?;
+        println!("wrote {}", args.output.display());
+        return Ok(());
+    }
     let builder = build(args.name, args.lights.map(|n| n as usize), args.seed)?;
     builder.write(&args.output)?;
     println!("wrote {}", args.output.display());
@@ -81,6 +97,15 @@ pub fn build(name: SceneName, lights: Option<usize>, seed: u64) -> anyhow::Resul
         SceneName::Textured => {
             let n = square(lights.unwrap_or(512), generate::textured_side)?;
             generate::textured(n, seed)
+        }
+        SceneName::Outdoor => match lights {
+            None => generate_sky::outdoor(),
+            Some(_) => return Err(usage("has one lamp; drop --lights".into()).into()),
+        },
+        SceneName::Sky => {
+            return Err(
+                usage("is an environment map, not a glTF scene (-o FILE.exr)".into()).into(),
+            )
         }
     })
 }

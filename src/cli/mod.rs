@@ -1,7 +1,8 @@
 //! The `manylights` command line: one file per subcommand.
 //!
 //! Exit codes: 0 success; 1 a run-time failure (e.g. an output file cannot be written);
-//! 2 bad command-line usage (from clap); 3 an input scene that cannot be read or is invalid;
+//! 2 bad command-line usage (from clap); 3 an input scene or environment map that cannot be read
+//! or is invalid;
 //! 4 a `converge` check failed.
 
 pub mod bench;
@@ -71,7 +72,10 @@ pub fn run(cli: Cli) -> i32 {
             eprintln!("error: {e:#}");
             if e.downcast_ref::<UsageError>().is_some() {
                 EXIT_USAGE
-            } else if e.downcast_ref::<crate::scene::LoadError>().is_some() {
+            } else if e.downcast_ref::<crate::scene::LoadError>().is_some()
+                || e.downcast_ref::<crate::lights::EnvironmentError>()
+                    .is_some()
+            {
                 EXIT_BAD_INPUT
             } else {
                 EXIT_FAILURE

@@ -4,11 +4,13 @@
 //! configuration accept exactly one value and fall back to their own default when none is given.
 
 use std::path::PathBuf;
+use std::sync::Arc;
 
 use clap::Args;
 
 use super::UsageError;
 use crate::integrator::Strategy;
+use crate::lights::{EnvironmentError, EnvironmentMap};
 use crate::measure::EstimatorChoice;
 use crate::sampling::sampler::SamplerKind;
 use crate::scene::CameraChoice;
@@ -56,6 +58,16 @@ pub struct RenderOptionsArgs {
     /// fireflies at the price of energy; reports mark the configuration biased).
     #[arg(long, value_parser = positive_finite)]
     pub clamp: Option<f32>,
+    /// Light the scene with an equirectangular RGB OpenEXR environment map (+Y up, row 0 at the
+    /// zenith, the image centre toward −Z); it is one more light for selection.
+    #[arg(long)]
+    pub env: Option<PathBuf>,
+    /// Multiply the environment map's radiance by this factor.
+    #[arg(long, default_value_t = 1.0, value_parser = positive_finite, requires = "env")]
+    pub env_scale: f32,
+    /// Turn the environment map by this many degrees about +Y (counter-clockwise from above).
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, value_parser = finite, requires = "env")]
+    pub env_rotate: f32,
 }
 
 /// The defaults of a command that renders one configuration.
@@ -96,6 +108,14 @@ impl RenderOptionsArgs {
         single("--spp", &self.spp, defaults.spp)
     }
 
+    /// The `--env` map, scaled and rotated (None without `--env`).
+    pub fn environment(&self) -> Result<Option<Arc<EnvironmentMap>>, EnvironmentError> {
+        self.env
+            .as_deref()
+            .map(|path| EnvironmentMap::load(path, self.env_scale, self.env_rotate).map(Arc::new))
+            .transpose()
+    }
+
     /// A rayon pool with `--threads` workers (default: all cores).
     pub fn thread_pool(&self) -> anyhow::Result<rayon::ThreadPool> {
         use anyhow::Context;
@@ -119,6 +139,15 @@ fn single<T: Copy + std::fmt::Debug>(
         _ => Err(UsageError(format!(
             "{name} takes one value here, got {values:?} (lists are for bench and converge)"
         ))),
+    }
+}
+
+fn finite(s: &str) -> Result<f32, String> {
+    let x: f32 = s.parse().map_err(|e| format!("{e}"))?;
+    if x.is_finite() {
+        Ok(x)
+    } else {
+        Err(format!("must be a finite number, got {s}"))
     }
 }
 

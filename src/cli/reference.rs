@@ -46,7 +46,8 @@ pub fn run(args: &ReferenceArgs) -> anyhow::Result<()> {
     }
     let estimator = o.estimator(&REFERENCE_DEFAULTS)?;
     let spp = o.single_spp(&REFERENCE_DEFAULTS)?;
-    let setup = SceneSetup::load(&o.scene, o.camera.as_ref(), o.width, o.height)?;
+    let setup = SceneSetup::load(&o.scene, o.camera.as_ref(), o.width, o.height)?
+        .with_environment(o.environment()?);
     let options = ReferenceOptions {
         width: setup.width,
         height: setup.height,

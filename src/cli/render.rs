@@ -67,6 +67,8 @@ pub struct RenderSummary {
     pub threads: usize,
     pub triangles: usize,
     pub lights: usize,
+    /// The `--env` map lighting the scene (one of the lights), with its scale and rotation.
+    pub environment: Option<EnvironmentSummary>,
     pub degenerate_triangles: usize,
     pub total_power: f64,
     /// Heap bytes of the light-selection structure.
@@ -77,6 +79,16 @@ pub struct RenderSummary {
     pub rays_per_second: f64,
     pub camera_samples_per_second: f64,
     pub image_mean: f64,
+}
+
+/// The environment map of a render.
+#[derive(Clone, Debug, Serialize)]
+pub struct EnvironmentSummary {
+    pub file: PathBuf,
+    pub width: usize,
+    pub height: usize,
+    pub scale: f32,
+    pub rotate_degrees: f32,
 }
 
 pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
@@ -138,7 +150,8 @@ fn render_scene(
     let o = &args.options;
     let mut seconds = Timings::default();
     let t = Instant::now();
-    let scene = load_gltf(&o.scene, &o.camera.clone().unwrap_or_default())?;
+    let scene = load_gltf(&o.scene, &o.camera.clone().unwrap_or_default())?
+        .with_environment(o.environment()?);
     seconds.load = t.elapsed().as_secs_f64();
 
     let camera = camera_or_framing(&scene, &o.scene);
@@ -202,6 +215,15 @@ fn render_scene(
         threads: rayon::current_num_threads(),
         triangles: prepared.scene.triangles.len(),
         lights: prepared.lights.len(),
+        environment: prepared.lights.environment().and_then(|(_, map)| {
+            Some(EnvironmentSummary {
+                file: o.env.clone()?,
+                width: map.width(),
+                height: map.height(),
+                scale: o.env_scale,
+                rotate_degrees: o.env_rotate,
+            })
+        }),
         degenerate_triangles: prepared.scene.stats.degenerate_triangles,
         total_power: prepared.lights.total_power(),
         selector_bytes: prepared.selector.as_ref().map_or(0, |s| s.bytes()),
@@ -228,6 +250,16 @@ fn print_summary(s: &RenderSummary) {
         "image     {}x{}, {} spp, K x N = {} x {}, selector {:?}, strategy {:?}, sampler {:?}, seed {}, {} threads",
         s.width, s.height, s.spp, s.k, s.n, s.selector, s.strategy, s.sampler, s.seed, s.threads
     );
+    if let Some(e) = &s.environment {
+        println!(
+            "sky       {} ({}x{}), scale {}, turned {}° about +Y",
+            e.file.display(),
+            e.width,
+            e.height,
+            e.scale,
+            e.rotate_degrees
+        );
+    }
     if let Some(c) = s.clamp {
         println!("clamp     each sample clamped to {c} per channel (biased)");
     }

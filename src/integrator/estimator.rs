@@ -10,6 +10,9 @@
 //! heuristic w_a = p_a² / (p_light² + p_bsdf²) in solid angle, with p_light = p_l · p(ω | l) and,
 //! for a BSDF ray that hits light l, p_l from the selector's pmf (Veach & Guibas 1995).
 //! `hemisphere-*`: K·N directions uniform or cosine-distributed: Σ f·Le·cosθ / (K·N·p(ω)).
+//! The environment map is one more light: light sampling draws its N directions from the map's
+//! own density p(ω) (solid angle) with a shadow ray to infinity; camera, BSDF and hemisphere rays
+//! that leave the scene add its radiance, a BSDF ray's MIS weight using p_l(env) · p(ω).
 //!
 //! Rays per K×N slot: light-area, light-solid-angle: one shadow ray per light sample (none when
 //! the light faces away or f = 0); bsdf and hemisphere-*: one ray; mis: one shadow + one BSDF ray.
@@ -18,7 +21,7 @@ use glam::Vec3;
 
 use super::Strategy;
 use crate::accel::{offset_ray_origin, Accel, Hit};
-use crate::lights::{emits_toward, Light, Lights, Technique, TriangleLight};
+use crate::lights::{emits_toward, EnvironmentMap, Light, Lights, Technique, TriangleLight};
 use crate::material::Brdf;
 use crate::sampling::sampler::CameraSample;
 use crate::sampling::warp::{self, Frame};
@@ -107,7 +110,7 @@ impl Estimator<'_> {
     ) -> Vec3 {
         counts.camera_rays += 1;
         let Some(hit) = self.accel.closest_hit(origin, dir, f32::INFINITY) else {
-            return Vec3::ZERO;
+            return self.environment_radiance(dir);
         };
         let wo = -dir;
         let emitted = self.emission_at(&hit, wo);
@@ -209,6 +212,14 @@ impl Estimator<'_> {
                         sum += f_le_g * w / (k * n * p_l * p_x);
                     }
                 }
+                Light::Environment(env) => {
+                    for i in 0..self.n {
+                        let u = cs.light_point(slot, i);
+                        let (f_le_cos, p_w, w) =
+                            self.environment_sample(x, &env.map, p_l, mis, u, counts);
+                        sum += f_le_cos * w / (k * n * p_l * p_w);
+                    }
+                }
                 delta => sum += self.delta_sample(x, delta, counts) / (k * p_l),
             }
         }
@@ -265,6 +276,51 @@ impl Estimator<'_> {
         (f * le * g, s.p_x, weight)
     }
 
+    /// One direction from the environment map: (f · L · V · cosθ, p(ω) in solid angle, MIS
+    /// weight); a direction that carries no light returns p = 1 and zero.
+    fn environment_sample(
+        &self,
+        x: &ShadingPoint,
+        env: &EnvironmentMap,
+        p_l: f32,
+        mis: bool,
+        u: [f32; 2],
+        counts: &mut SampleCounts,
+    ) -> (Vec3, f32, f32) {
+        const NOTHING: (Vec3, f32, f32) = (Vec3::ZERO, 1.0, 0.0);
+        let Some(s) = env.sample(u) else {
+            return NOTHING;
+        };
+        if x.ng.dot(s.wi) <= 0.0 || s.pdf <= 0.0 {
+            return NOTHING;
+        }
+        let f = x.brdf.eval(x.ns, x.wo, s.wi);
+        if f == Vec3::ZERO || s.radiance == Vec3::ZERO {
+            return NOTHING;
+        }
+        counts.shadow_rays += 1;
+        if self
+            .accel
+            .occluded(offset_ray_origin(x.p, x.ng), s.wi, f32::INFINITY)
+        {
+            return NOTHING;
+        }
+        let weight = if mis {
+            power_heuristic(p_l * s.pdf, x.brdf.pdf(x.ns, x.wo, s.wi))
+        } else {
+            1.0
+        };
+        (f * s.radiance * x.ns.dot(s.wi), s.pdf, weight)
+    }
+
+    /// Radiance of the environment along a ray that leaves the scene (zero without one).
+    #[inline]
+    fn environment_radiance(&self, dir: Vec3) -> Vec3 {
+        self.lights
+            .environment()
+            .map_or(Vec3::ZERO, |(_, env)| env.radiance(dir))
+    }
+
     /// f · I·falloff/r² (or E) · V · cosθ for a delta light, sampled exactly.
     fn delta_sample(&self, x: &ShadingPoint, light: &Light, counts: &mut SampleCounts) -> Vec3 {
         let Some(s) = light.sample_delta(x.p) else {
@@ -314,17 +370,18 @@ impl Estimator<'_> {
             }
             let pdf = x.brdf.pdf(x.ns, x.wo, wi);
             counts.bounce_rays += 1;
-            let Some(hit) = self.accel.closest_hit(origin, wi, f32::INFINITY) else {
-                continue;
+            let hit = self.accel.closest_hit(origin, wi, f32::INFINITY);
+            let le = match &hit {
+                Some(hit) => self.emission_at(hit, -wi),
+                None => self.environment_radiance(wi),
             };
-            let le = self.emission_at(&hit, -wi);
             if le == Vec3::ZERO || pdf <= 0.0 {
                 continue;
             }
-            let weight = if mis {
-                self.bsdf_mis_weight(x, &hit, wi, pdf)
-            } else {
-                1.0
+            let weight = match (mis, &hit) {
+                (false, _) => 1.0,
+                (true, Some(hit)) => self.bsdf_mis_weight(x, hit, wi, pdf),
+                (true, None) => self.environment_mis_weight(x, wi, pdf),
             };
             let f = x.brdf.eval(x.ns, x.wo, wi);
             sum += f * le * x.ns.dot(wi) * weight / (samples * pdf);
@@ -349,6 +406,16 @@ impl Estimator<'_> {
         power_heuristic(pdf_bsdf, p_light)
     }
 
+    /// Power-heuristic weight of a BSDF sample that left the scene, against the light sampler's
+    /// density for that direction: p_l(environment | x) · p(ω | environment).
+    fn environment_mis_weight(&self, x: &ShadingPoint, wi: Vec3, pdf_bsdf: f32) -> f32 {
+        let (Some(selector), Some((l, env))) = (self.selector, self.lights.environment()) else {
+            return 1.0;
+        };
+        let p_l = selector.pmf(self.lights, &x.context(), l) as f32;
+        power_heuristic(pdf_bsdf, p_l * env.pdf(wi))
+    }
+
     /// Σ over K·N directions of f · Le · cosθ / (K · N · p(ω)), uniform or cosine p(ω).
     fn hemisphere(&self, x: &ShadingPoint, cs: &CameraSample, counts: &mut SampleCounts) -> Vec3 {
         let frame = Frame::new(x.ns);
@@ -370,10 +437,10 @@ impl Estimator<'_> {
                 continue;
             }
             counts.bounce_rays += 1;
-            let Some(hit) = self.accel.closest_hit(origin, wi, f32::INFINITY) else {
-                continue;
+            let le = match self.accel.closest_hit(origin, wi, f32::INFINITY) {
+                Some(hit) => self.emission_at(&hit, -wi),
+                None => self.environment_radiance(wi),
             };
-            let le = self.emission_at(&hit, -wi);
             if le == Vec3::ZERO {
                 continue;
             }

@@ -1,15 +1,19 @@
-//! Lights: one per emissive triangle plus the scene's punctual lights, each with the power used
-//! for selection and its own sampling routine. A textured emitter's power uses its emission
-//! averaged over the triangle's own uv footprint, not the factor or the whole image's mean.
+//! Lights: one per emissive triangle plus the scene's punctual lights and its environment map,
+//! each with the power used for selection and its own sampling routine. A textured emitter's
+//! power uses its emission averaged over the triangle's own uv footprint, not the factor or the
+//! whole image's mean.
 
+pub mod environment;
 pub mod polygon;
 pub mod power_stats;
 pub mod punctual;
+pub mod sky_irradiance;
 pub mod spherical_triangle;
 pub mod triangle;
 
 use glam::Vec3;
 
+pub use environment::{EnvironmentError, EnvironmentLight, EnvironmentMap, EnvironmentSample};
 pub use punctual::{DeltaSample, DirectionalLight, PointLight};
 pub use triangle::{Technique, TriangleLight, TriangleSample};
 
@@ -36,15 +40,19 @@ pub enum Light {
     /// A point light, or a spot light when it has a cone.
     Point(PointLight),
     Directional(DirectionalLight),
+    /// The environment map: an infinite light sampled by direction.
+    Environment(EnvironmentLight),
 }
 
 impl Light {
-    /// Φ used for selection (f64): π·A·luminance(L) (×2 two-sided), 4π·luminance(I), π·R²·luminance(E).
+    /// Φ used for selection (f64): π·A·luminance(L) (×2 two-sided), 4π·luminance(I), π·R²·luminance(E),
+    /// π·R²·∫luminance(L)dω for the environment.
     pub fn power(&self) -> f64 {
         match self {
             Light::Triangle(t) => t.power(),
             Light::Point(p) => p.power(),
             Light::Directional(d) => d.power(),
+            Light::Environment(e) => e.power(),
         }
     }
 
@@ -52,7 +60,7 @@ impl Light {
     #[inline]
     pub fn sample_delta(&self, p: Vec3) -> Option<DeltaSample> {
         match self {
-            Light::Triangle(_) => None,
+            Light::Triangle(_) | Light::Environment(_) => None,
             Light::Point(l) => l.sample(p),
             Light::Directional(d) => Some(d.sample()),
         }
@@ -66,10 +74,13 @@ pub struct Lights {
     /// Scene triangle → light index (u32::MAX for non-emissive triangles), for MIS: a BSDF ray
     /// that hits an emitter needs that light's selection probability.
     light_of_triangle: Vec<u32>,
+    /// Index of the environment light, if the scene has one (rays that escape the scene see it).
+    environment: Option<usize>,
 }
 
 impl Lights {
-    /// One light per triangle whose material emits, then the punctual lights.
+    /// One light per triangle whose material emits, then the punctual lights, then the
+    /// environment map.
     pub fn from_scene(scene: &Scene) -> Lights {
         let mut lights = Vec::new();
         let mut triangle_of_light = Vec::new();
@@ -99,9 +110,16 @@ impl Lights {
                 .iter()
                 .map(|l| punctual::from_punctual(l, radius)),
         );
+        if let Some(map) = &scene.environment {
+            lights.push(Light::Environment(EnvironmentLight {
+                map: map.clone(),
+                scene_radius: radius,
+            }));
+        }
         let mut out = Lights {
             lights,
             light_of_triangle: Vec::new(),
+            environment: None,
         };
         out.index_triangles(scene.triangles.len());
         out
@@ -109,9 +127,12 @@ impl Lights {
 
     fn index_triangles(&mut self, triangles: usize) {
         self.light_of_triangle = vec![u32::MAX; triangles];
+        self.environment = None;
         for (l, light) in self.lights.iter().enumerate() {
-            if let Light::Triangle(t) = light {
-                self.light_of_triangle[t.triangle as usize] = l as u32;
+            match light {
+                Light::Triangle(t) => self.light_of_triangle[t.triangle as usize] = l as u32,
+                Light::Environment(_) => self.environment = Some(l),
+                _ => {}
             }
         }
     }
@@ -142,6 +163,16 @@ impl Lights {
     pub fn light_of_triangle(&self, t: u32) -> Option<usize> {
         let l = self.light_of_triangle[t as usize];
         (l != u32::MAX).then_some(l as usize)
+    }
+
+    /// The environment light and its index, if the scene has one.
+    #[inline]
+    pub fn environment(&self) -> Option<(usize, &EnvironmentMap)> {
+        let l = self.environment?;
+        match &self.lights[l] {
+            Light::Environment(e) => Some((l, &e.map)),
+            _ => None,
+        }
     }
 
     pub fn len(&self) -> usize {

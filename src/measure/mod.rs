@@ -11,12 +11,14 @@ pub mod reference;
 pub mod report;
 
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
 
 use crate::film::Film;
 use crate::image::RgbImage;
 use crate::integrator::Strategy;
+use crate::lights::EnvironmentMap;
 use crate::sampling::sampler::SamplerKind;
 use crate::scene::{load_gltf, Camera, CameraChoice, Scene};
 use crate::select::SelectorKind;
@@ -36,7 +38,8 @@ pub struct EstimatorChoice {
 /// A scene loaded for measurement, with the content hash that identifies its references.
 pub struct SceneSetup {
     pub path: PathBuf,
-    /// FNV-1a of the scene file's bytes.
+    /// FNV-1a of the scene file's bytes (and, with an environment map, of its texels and
+    /// rotation after them).
     pub hash: u64,
     pub scene: Scene,
     pub camera: Camera,
@@ -76,6 +79,25 @@ impl SceneSetup {
             width,
             height,
         })
+    }
+
+    /// Lights the scene with `environment`; the hash then covers the map's size, scaled texels
+    /// and rotation too, so that references rendered without it (or with another) do not match.
+    pub fn with_environment(mut self, environment: Option<Arc<EnvironmentMap>>) -> SceneSetup {
+        if let Some(env) = &environment {
+            let mut bytes = self.hash.to_le_bytes().to_vec();
+            bytes.extend((env.width() as u64).to_le_bytes());
+            bytes.extend(env.rotation_degrees().to_le_bytes());
+            bytes.extend(
+                env.texels()
+                    .iter()
+                    .flat_map(|t| t.to_array())
+                    .flat_map(f32::to_le_bytes),
+            );
+            self.hash = fnv1a64(&bytes);
+        }
+        self.scene = self.scene.with_environment(environment);
+        self
     }
 }
 

@@ -1,6 +1,7 @@
 //! Random numbers, sample sequences, and the warps that turn them into points and directions.
 
 pub mod alias;
+pub mod distribution;
 pub mod rng;
 pub mod sampler;
 pub mod warp;

@@ -6,6 +6,7 @@
 
 mod camera;
 pub mod generate;
+pub mod generate_sky;
 mod gltf_load;
 pub mod gltf_write;
 pub mod texture;
@@ -15,7 +16,11 @@ pub use camera::Camera;
 pub use gltf_load::{load_gltf, load_gltf_bytes, CameraChoice, LoadError};
 pub use texture::{Texture, Wrap};
 
+use std::sync::Arc;
+
 use glam::{Vec2, Vec3};
+
+use crate::lights::EnvironmentMap;
 
 /// glTF metallic-roughness material: constant factors, and optional base-colour and emissive
 /// textures (indices into [`Scene::textures`]) that multiply them, read at TEXCOORD_0.
@@ -175,6 +180,9 @@ pub struct Scene {
     pub punctual: Vec<PunctualLight>,
     /// The textures materials refer to, linear RGB.
     pub textures: Vec<Texture>,
+    /// The environment map lighting the scene from infinitely far away (given on the command
+    /// line, not by the glTF file).
+    pub environment: Option<Arc<EnvironmentMap>>,
     pub stats: LoadStats,
 }
 
@@ -214,6 +222,7 @@ impl Scene {
             camera,
             punctual: Vec::new(),
             textures: Vec::new(),
+            environment: None,
             stats,
         })
     }
@@ -298,6 +307,12 @@ impl Scene {
             }
             _ => m.emission,
         }
+    }
+
+    /// Lights the scene with an environment map (None: no environment).
+    pub fn with_environment(mut self, environment: Option<Arc<EnvironmentMap>>) -> Scene {
+        self.environment = environment;
+        self
     }
 
     pub fn material_of(&self, triangle: usize) -> &Material {

@@ -1,8 +1,9 @@
-//! The `bvh` selector: bounded lights (triangles, points, spots) in a light BVH; directional
-//! lights, which have no position, chosen outside the tree with probability
-//! Φ_directional / (Φ_directional + Φ_tree), each directional light ∝ its power (π·R²·E over the
-//! scene's bounding sphere). Where the tree's root importance is 0 (nothing in it can reach the
-//! shading point) the directional lights take all the probability.
+//! The `bvh` selector: bounded lights (triangles, points, spots) in a light BVH; infinite lights
+//! (directional lights and the environment map), which have no position, chosen outside the tree
+//! with probability Φ_infinite / (Φ_infinite + Φ_tree), each ∝ its power (π·R²·E for a
+//! directional light, π·R²·∫L dω for the environment, over the scene's bounding sphere of radius
+//! R). Where the tree's root importance is 0 (nothing in it can reach the shading point) the
+//! infinite lights take all the probability.
 
 use glam::Vec3;
 
@@ -13,7 +14,7 @@ use crate::lights::{Light, Lights};
 #[derive(Clone, Debug)]
 pub struct BvhSelector {
     tree: LightBvh,
-    /// Directional lights: (light index, its share of the directional power).
+    /// Infinite lights: (light index, its share of the infinite lights' power).
     infinite: Vec<(usize, f64)>,
     /// Probability of choosing from the tree where the tree can contribute.
     p_tree: f64,
@@ -53,7 +54,7 @@ fn bounds_of(light: &Light) -> Option<LightBounds> {
                 two_sided: false,
             })
         }
-        Light::Directional(_) => None,
+        Light::Directional(_) | Light::Environment(_) => None,
     }
 }
 
@@ -82,7 +83,7 @@ impl BvhSelector {
             .lights
             .iter()
             .enumerate()
-            .filter(|(_, l)| matches!(l, Light::Directional(_)))
+            .filter(|(_, l)| matches!(l, Light::Directional(_) | Light::Environment(_)))
             .map(|(i, l)| (i, l.power()))
             .filter(|(_, phi)| *phi > 0.0)
             .collect();

@@ -2,7 +2,10 @@
 //! unshadowed contribution to a diffuse receiver at (p, n), in luminance:
 //!     triangle: luminance(L) · Ω⊥ (Lambert's polygon formula, clipped to the receiver's upper
 //!               hemisphere; zero behind a one-sided emitter),
-//!     point/spot: luminance(I · falloff) · max(0, n·ω) / r²,   directional: luminance(E) · max(0, n·ω).
+//!     point/spot: luminance(I · falloff) · max(0, n·ω) / r²,   directional: luminance(E) · max(0, n·ω),
+//!     environment: ∫ luminance(L)·max(0, n·ω) dω from a table accurate to a few percent
+//!               (lights::sky_irradiance), floored at 1e-4·∫ luminance(L) dω so that a sky the
+//!               table rounds to 0 is never ruled out.
 //! It ignores visibility and the BRDF's shape: the bound any visibility-blind selector can approach.
 
 use std::cell::RefCell;
@@ -20,6 +23,10 @@ pub fn weight(light: &Light, ctx: &ShadingContext) -> f64 {
             let v = [t.p0, t.p0 + t.e1, t.p0 + t.e2];
             luminance(t.radiance) as f64 * projected_solid_angle(ctx.p, ctx.n, v)
         }
+        Light::Environment(e) => e
+            .map
+            .irradiance(ctx.n)
+            .max(1e-4 * e.map.luminance_integral()),
         Light::Point(_) | Light::Directional(_) => match light.sample_delta(ctx.p) {
             Some(s) => luminance(s.li) as f64 * ctx.n.dot(s.wi).max(0.0) as f64,
             None => 0.0,
