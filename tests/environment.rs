@@ -13,6 +13,7 @@ use glam::{DVec3, Mat4, Vec3};
 use manylights::image::RgbImage;
 use manylights::integrator::{render, PreparedScene, RenderOptions, Strategy};
 use manylights::lights::EnvironmentMap;
+use manylights::sampling::sampler::SamplerKind;
 use manylights::scene::{generate_sky, Camera, Material, Scene, Triangle};
 use manylights::select::SelectorKind;
 
@@ -77,6 +78,8 @@ fn check(env: EnvironmentMap, expected: DVec3, selector: SelectorKind, strategy:
         spp: 64,
         seed: 3,
         clamp: None,
+        sampler: SamplerKind::Independent,
+        first_sample: 0,
     };
     let (film, stats) = render(&estimator, &camera, &opts);
     assert_eq!(stats.nan_samples + stats.inf_samples, 0);

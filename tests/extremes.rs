@@ -184,44 +184,54 @@ fn shading_point_on_an_emitter_sees_its_own_emission_plus_the_other_lights() {
 
 #[test]
 fn shading_point_a_micrometre_below_a_large_emitter_gets_pi_l() {
-    // Receiver at z = 0; 1e-6 m above it a 2 km wide emitter facing down, a fan of six
-    // triangles around the point above the receiver, so each subtends ≈ π/3 sr and is sampled
-    // in solid angle: E → π·L as r² → 0. (One triangle covering the point would subtend
-    // Ω > 6.22 sr and fall back to area sampling, whose variance explodes: see the README.)
+    // Receiver at z = 0; 1e-6 m above it a 2 km wide emitter facing down: E → π·L as r² → 0.
+    // Built two ways: one triangle covering the point (Ω ≈ 2π − 1e-8 sr: sampled split at the
+    // receiver's foot) and a fan of six triangles around it (each ≈ π/3 sr, sampled whole).
     let gap = 1e-6;
     let target = Vec3::new(3e-4, -2e-4, 0.0);
     let centre = target + Vec3::new(0.0, 0.0, gap);
-    let mut tris = square(Vec3::ZERO, 1.0, true, 0).to_vec();
-    let rim = |k: u32| {
-        let a = std::f32::consts::TAU * k as f32 / 6.0;
+    let rim = |k: u32, n: u32| {
+        let a = std::f32::consts::TAU * (k as f32 + 0.3) / n as f32;
         centre + 1e3 * Vec3::new(a.cos(), a.sin(), 0.0)
     };
     // Clockwise seen from above: fronts facing down.
-    tris.extend((0..6).map(|k| Triangle::flat([centre, rim(k + 1), rim(k)], 1)));
-    let scene = Scene::new(
-        tris,
-        vec![
-            lambert_receiver(),
-            Material::emitter(Vec3::splat(1.0), false),
-        ],
-        None,
-    )
-    .unwrap();
-    let expected = lambert_radiance(&scene, target, Vec3::Z);
-    assert!(
-        (expected - RHO as f64).abs() < 1e-5,
-        "premise: the emitter fills the hemisphere, E = π·L"
-    );
-    let eye = target + Vec3::new(0.0, 0.0, 0.5 * gap);
-    let (px, stats) = probe(
-        &scene,
-        SelectorKind::Power,
-        Strategy::LightSolidAngle,
-        eye,
-        target,
-        20_000,
-    );
-    assert_matches("light-solid-angle", &px, &stats, expected);
+    let fan: Vec<Triangle> = (0..6)
+        .map(|k| Triangle::flat([centre, rim(k + 1, 6), rim(k, 6)], 1))
+        .collect();
+    let single = vec![Triangle::flat([rim(0, 3), rim(2, 3), rim(1, 3)], 1)];
+    for (label, emitter) in [("one triangle", single), ("fan of six", fan)] {
+        let mut tris = square(Vec3::ZERO, 1.0, true, 0).to_vec();
+        tris.extend(emitter);
+        let scene = Scene::new(
+            tris,
+            vec![
+                lambert_receiver(),
+                Material::emitter(Vec3::splat(1.0), false),
+            ],
+            None,
+        )
+        .unwrap();
+        let expected = lambert_radiance(&scene, target, Vec3::Z);
+        assert!(
+            (expected - RHO as f64).abs() < 1e-5,
+            "premise: the emitter fills the hemisphere, E = π·L"
+        );
+        let eye = target + Vec3::new(0.0, 0.0, 0.5 * gap);
+        let (px, stats) = probe(
+            &scene,
+            SelectorKind::Power,
+            Strategy::LightSolidAngle,
+            eye,
+            target,
+            20_000,
+        );
+        assert_matches(
+            &format!("light-solid-angle, {label}"),
+            &px,
+            &stats,
+            expected,
+        );
+    }
 }
 
 #[test]
