@@ -15,7 +15,9 @@ pub const MIN_SPHERICAL_SOLID_ANGLE: f32 = 3e-4;
 /// [`SolidAngleView::Split`]), so solid-angle sampling stays uniform up to Ω = 2π.
 pub const MAX_SPHERICAL_SOLID_ANGLE: f32 = 6.22;
 
-/// The triangle seen from a receiver, for uniform solid-angle sampling.
+/// The triangle seen from a receiver, for uniform solid-angle sampling. A short-lived stack
+/// value (boxing the large variant would allocate per sample).
+#[allow(clippy::large_enum_variant)]
 enum SolidAngleView {
     /// Ω within the thresholds: Arvo's map over the whole triangle.
     Whole(SphericalTriangle),
