@@ -4,6 +4,7 @@ use std::path::PathBuf;
 
 use clap::{Args, ValueEnum};
 
+use super::output::check_output_path;
 use crate::scene::generate;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -28,6 +29,11 @@ pub struct GenArgs {
 }
 
 pub fn run(args: &GenArgs) -> anyhow::Result<()> {
+    let is_gltf = args
+        .output
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("gltf"));
+    check_output_path(&args.output, if is_gltf { "gltf" } else { "glb" })?;
     let builder = match args.name {
         SceneName::Cornell => generate::cornell(),
         SceneName::Town => generate::many_lights(args.seed, args.lights as usize),

@@ -10,7 +10,9 @@ mod gltf_load;
 pub mod gltf_write;
 
 pub use camera::Camera;
-pub use gltf_load::{load_gltf, load_gltf_bytes, CameraChoice, LoadError};
+pub use gltf_load::{
+    load_gltf, load_gltf_bytes, read_scene_file, scene_folder, CameraChoice, LoadError,
+};
 
 use glam::{Vec2, Vec3};
 
