@@ -29,7 +29,7 @@ pub struct RenderArgs {
     #[arg(long)]
     pub png: Option<PathBuf>,
     /// Exposure of the PNG preview in stops.
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, value_parser = finite)]
     pub exposure: f32,
     /// Also write this summary as JSON.
     #[arg(long)]
@@ -180,6 +180,15 @@ fn render_scene(
         seconds,
         stats,
     })
+}
+
+fn finite(s: &str) -> Result<f32, String> {
+    let x: f32 = s.parse().map_err(|e| format!("{e}"))?;
+    if x.is_finite() {
+        Ok(x)
+    } else {
+        Err(format!("must be a finite number, got {s}"))
+    }
 }
 
 fn print_summary(s: &RenderSummary) {
