@@ -1,7 +1,8 @@
 //! The `manylights` command line: one file per subcommand.
 //!
 //! Exit codes: 0 success; 1 a run-time failure (e.g. an output file cannot be written);
-//! 2 bad command-line usage (from clap); 3 an input scene that cannot be read or is invalid;
+//! 2 bad command-line usage (from clap, or a [`UsageError`]); 3 an input that cannot be read or
+//! is invalid (a scene's [`crate::scene::LoadError`], or a [`BadInput`] image or reference);
 //! 4 a `converge` check failed.
 
 pub mod bench;
