@@ -302,10 +302,25 @@ fn every_scene_command_refuses_every_hostile_scene_with_exit_3() {
         vec!["cannot read", "No such file"],
     ));
     #[cfg(target_os = "linux")]
-    cases.push((
-        PathBuf::from("/dev/zero"),
-        vec!["cannot read", "not a regular file"],
-    ));
+    {
+        cases.push((
+            PathBuf::from("/dev/zero"),
+            vec!["cannot read", "not a regular file"],
+        ));
+        // A FIFO (opening it for reading would block until a writer comes), as the scene and
+        // as a buffer file.
+        let fifo = scenes.join("fifo.glb");
+        let made = Command::new("mkfifo").arg(&fifo).status().unwrap();
+        assert!(made.success());
+        cases.push((fifo, vec!["cannot read", "not a regular file"]));
+        let buffer_fifo = edited_gltf(&scenes, "buffer-fifo", |d| {
+            d["buffers"][0]["uri"] = json!("fifo.glb")
+        });
+        cases.push((
+            buffer_fifo,
+            vec!["buffer 0", "'fifo.glb'", "not a regular file"],
+        ));
+    }
     for (scene, mentions) in &cases {
         let name = scene.file_name().unwrap().to_string_lossy().into_owned();
         let mentions: Vec<&str> = mentions.iter().copied().chain([name.as_str()]).collect();

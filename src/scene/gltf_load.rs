@@ -81,15 +81,16 @@ pub fn read_scene_file(path: &Path) -> Result<Vec<u8>, LoadError> {
         path: path.into(),
         source,
     };
-    let mut file = std::fs::File::open(path).map_err(io)?;
-    let size = file.metadata().map_err(io)?;
-    if !size.is_file() {
+    // Checked before opening: opening a FIFO for reading blocks until a writer appears.
+    let meta = std::fs::metadata(path).map_err(io)?;
+    if !meta.is_file() {
         return Err(io(std::io::Error::new(
             std::io::ErrorKind::InvalidInput,
             "not a regular file",
         )));
     }
-    let size = size.len();
+    let mut file = std::fs::File::open(path).map_err(io)?;
+    let size = meta.len();
     let mut header = Vec::with_capacity(12);
     (&mut file).take(12).read_to_end(&mut header).map_err(io)?;
     let limit = match header.get(8..12) {
@@ -342,11 +343,12 @@ fn read_uri(uri: &str, length: usize, base_dir: &Path) -> Result<Vec<u8>, String
     let cannot =
         |e: &dyn std::fmt::Display| format!("cannot read '{uri}' ({}): {e}", file.display());
     // Only regular files: a device such as /dev/zero or a FIFO would never end or never answer.
-    let mut reader = std::fs::File::open(&file).map_err(|e| cannot(&e))?;
-    let meta = reader.metadata().map_err(|e| cannot(&e))?;
+    // Checked before opening: opening a FIFO for reading blocks until a writer appears.
+    let meta = std::fs::metadata(&file).map_err(|e| cannot(&e))?;
     if !meta.is_file() {
         return Err(cannot(&"not a regular file"));
     }
+    let mut reader = std::fs::File::open(&file).map_err(|e| cannot(&e))?;
     if meta.len() < length as u64 {
         return Err(format!(
             "declares {length} bytes but '{uri}' ({}) has only {}",
