@@ -3,12 +3,12 @@
 
 use std::path::PathBuf;
 
-use anyhow::bail;
+use anyhow::Context;
 use clap::Args;
 
-use super::options::{RenderOptionsArgs, RENDER_DEFAULTS};
+use super::options::{check_resolution, RenderOptionsArgs, RENDER_DEFAULTS};
+use super::output::{check_output_folder, check_output_path};
 use super::reference::obtain_reference;
-use super::render::check_output_path;
 use super::UsageError;
 use crate::measure::bench::{
     apply_baseline, estimator_label, run, split_baseline, target_answers, BenchPlan,
@@ -133,9 +133,7 @@ pub fn estimators(args: &BenchArgs) -> Result<Vec<EstimatorChoice>, UsageError> 
 
 pub fn run_bench(args: &BenchArgs) -> anyhow::Result<()> {
     if let Some(dir) = &args.error_images {
-        if !dir.is_dir() {
-            bail!("--error-images {}: not an existing folder", dir.display());
-        }
+        check_output_folder(dir).with_context(|| format!("--error-images {}", dir.display()))?;
     }
     for (path, ext) in [
         (&args.json, "json"),
@@ -175,6 +173,7 @@ pub fn run_bench(args: &BenchArgs) -> anyhow::Result<()> {
     }
     let setup = SceneSetup::load(&o.scene, o.camera.as_ref(), o.width, o.height)?
         .with_environment(o.environment()?);
+    check_resolution(setup.width, setup.height)?;
     let pool = o.thread_pool()?;
     let reference =
         pool.install(|| obtain_reference(&setup, args.reference.as_deref(), args.reference_spp))?;

@@ -5,9 +5,9 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use super::options::{RenderOptionsArgs, RENDER_DEFAULTS};
+use super::options::{check_resolution, RenderOptionsArgs, RENDER_DEFAULTS};
+use super::output::check_output_path;
 use super::reference::obtain_reference;
-use super::render::check_output_path;
 use super::UsageError;
 use crate::measure::converge::{run, ConvergeOptions, ConvergeReport};
 use crate::measure::report::write_json;
@@ -66,6 +66,7 @@ pub fn run_converge(args: &ConvergeArgs) -> anyhow::Result<bool> {
     };
     let setup = SceneSetup::load(&o.scene, o.camera.as_ref(), o.width, o.height)?
         .with_environment(o.environment()?);
+    check_resolution(setup.width, setup.height)?;
     let pool = o.thread_pool()?;
     let max_spp = distinct.last().copied().unwrap_or(1);
     let reference_spp = args

@@ -1,11 +1,13 @@
 //! `manylights diff A.exr B.exr`: error of image A against reference B.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Context};
+use anyhow::Context;
 use clap::Args;
 
-use crate::image::{read_exr_rgb, write_exr, RgbImage};
+use super::output::check_output_path;
+use super::BadInput;
+use crate::image::{check_samples, read_exr_rgb, write_exr, RgbImage};
 use crate::measure::metrics::compare;
 
 #[derive(Args, Debug)]
@@ -20,10 +22,13 @@ pub struct DiffArgs {
 }
 
 pub fn run(args: &DiffArgs) -> anyhow::Result<()> {
-    let (a, _) = read_exr_rgb(&args.image)?;
-    let (b, _) = read_exr_rgb(&args.reference)?;
+    if let Some(out) = &args.error_image {
+        check_output_path(out, "exr")?;
+    }
+    let a = read_finite(&args.image)?;
+    let b = read_finite(&args.reference)?;
     let Some(e) = compare(&a, &b) else {
-        bail!(
+        return Err(BadInput(format!(
             "{} is {}x{} but the reference {} is {}x{}",
             args.image.display(),
             a.width,
@@ -31,7 +36,8 @@ pub fn run(args: &DiffArgs) -> anyhow::Result<()> {
             args.reference.display(),
             b.width,
             b.height
-        );
+        ))
+        .into());
     };
     println!("mse      {:.6e}", e.mse);
     println!("relmse   {:.6e}", e.relmse);
@@ -52,4 +58,13 @@ pub fn run(args: &DiffArgs) -> anyhow::Result<()> {
         write_exr(out, &diff, None).context("writing the difference image")?;
     }
     Ok(())
+}
+
+/// The mean layer of an EXR, refused (bad input, exit 3) when it cannot be read or holds a NaN
+/// or infinite pixel: the renderer never writes one, and an error measured over it is NaN.
+fn read_finite(path: &Path) -> anyhow::Result<RgbImage> {
+    let (image, _) = read_exr_rgb(path).map_err(BadInput::from_error)?;
+    check_samples(&image, path, "mean", "a finite value", f32::is_finite)
+        .map_err(BadInput::from_error)?;
+    Ok(image)
 }

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 
 use clap::{Args, ValueEnum};
 
-use super::render::check_output_path;
+use super::output::check_output_path;
 use super::UsageError;
 use crate::image::write_exr;
 use crate::scene::gltf_write::GltfBuilder;
@@ -61,6 +61,11 @@ pub fn run(args: &GenArgs) -> anyhow::Result<()> {
         println!("wrote {}", args.output.display());
         return Ok(());
     }
+    let is_gltf = args
+        .output
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("gltf"));
+    check_output_path(&args.output, if is_gltf { "gltf" } else { "glb" })?;
     let builder = build(args.name, args.lights.map(|n| n as usize), args.seed)?;
     builder.write(&args.output)?;
     println!("wrote {}", args.output.display());

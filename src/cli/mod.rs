@@ -1,8 +1,9 @@
 //! The `manylights` command line: one file per subcommand.
 //!
 //! Exit codes: 0 success; 1 a run-time failure (e.g. an output file cannot be written);
-//! 2 bad command-line usage (from clap); 3 an input scene or environment map that cannot be read
-//! or is invalid;
+//! 2 bad command-line usage (from clap, or a [`UsageError`]); 3 an input that cannot be read or
+//! is invalid (a scene's [`crate::scene::LoadError`], an environment map's
+//! [`crate::lights::EnvironmentError`], or a [`BadInput`] image or reference);
 //! 4 a `converge` check failed.
 
 pub mod bench;
@@ -11,6 +12,7 @@ pub mod diff;
 pub mod gen;
 pub mod info;
 pub mod options;
+pub mod output;
 pub mod reference;
 pub mod render;
 
@@ -69,18 +71,49 @@ pub fn run(cli: Cli) -> i32 {
     match result {
         Ok(()) => 0,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", message(&e));
             if e.downcast_ref::<UsageError>().is_some() {
                 EXIT_USAGE
             } else if e.downcast_ref::<crate::scene::LoadError>().is_some()
                 || e.downcast_ref::<crate::lights::EnvironmentError>()
                     .is_some()
+                || e.downcast_ref::<BadInput>().is_some()
             {
                 EXIT_BAD_INPUT
             } else {
                 EXIT_FAILURE
             }
         }
+    }
+}
+
+/// An error and its causes joined by ": ", leaving out a cause whose text the message already
+/// ends with (many errors print their source as part of their own text).
+fn message(e: &anyhow::Error) -> String {
+    let mut out = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if !out.ends_with(&text) {
+            if !out.is_empty() {
+                out.push_str(": ");
+            }
+            out.push_str(&text);
+        }
+    }
+    out
+}
+
+/// An input file other than the scene (an image, a reference or its sidecar) that cannot be
+/// read, is not what it should be (wrong size, non-finite pixels); exits with code 3 like a bad
+/// scene. Holds the whole message, causes included.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct BadInput(pub String);
+
+impl BadInput {
+    /// Wraps an error (with its causes) as bad input.
+    pub fn from_error(e: anyhow::Error) -> anyhow::Error {
+        BadInput(message(&e)).into()
     }
 }
 

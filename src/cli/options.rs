@@ -151,6 +151,24 @@ fn finite(s: &str) -> Result<f32, String> {
     }
 }
 
+/// The most pixels an image may have: 2^25 (8K UHD, 7680 × 4320, fits). Each pixel's
+/// statistics take 56 bytes, so the film alone stays under 2 GB; a larger request is refused
+/// before anything is allocated.
+pub const MAX_PIXELS: u64 = 1 << 25;
+
+/// Refuses an image of more than [`MAX_PIXELS`] pixels (after the height has been derived from
+/// the camera's aspect ratio), naming --width and --height.
+pub fn check_resolution(width: u32, height: u32) -> Result<(), UsageError> {
+    let pixels = u64::from(width) * u64::from(height);
+    if pixels > MAX_PIXELS {
+        return Err(UsageError(format!(
+            "--width {width} --height {height} is {pixels} pixels, more than the {MAX_PIXELS} \
+             allowed (8K UHD fits)"
+        )));
+    }
+    Ok(())
+}
+
 fn positive_finite(s: &str) -> Result<f32, String> {
     let x: f32 = s.parse().map_err(|e| format!("{e}"))?;
     if x.is_finite() && x > 0.0 {

@@ -4,13 +4,12 @@
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-use anyhow::bail;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 
-use super::options::{Defaults, RenderOptionsArgs};
-use super::render::check_output_path;
-use super::UsageError;
+use super::options::{check_resolution, Defaults, RenderOptionsArgs};
+use super::output::check_output_path;
+use super::{BadInput, UsageError};
 use crate::measure::progressive::PassCount;
 use crate::measure::reference::{
     cache_path, cached_or_render, read_reference, render_reference, sidecar_path, write_reference,
@@ -38,6 +37,7 @@ pub struct ReferenceArgs {
 
 pub fn run(args: &ReferenceArgs) -> anyhow::Result<()> {
     check_output_path(&args.output, "exr")?;
+    check_output_path(&sidecar_path(&args.output), "json")?;
     let o = &args.options;
     if o.clamp.is_some() {
         return Err(
@@ -48,6 +48,7 @@ pub fn run(args: &ReferenceArgs) -> anyhow::Result<()> {
     let spp = o.single_spp(&REFERENCE_DEFAULTS)?;
     let setup = SceneSetup::load(&o.scene, o.camera.as_ref(), o.width, o.height)?
         .with_environment(o.environment()?);
+    check_resolution(setup.width, setup.height)?;
     let options = ReferenceOptions {
         width: setup.width,
         height: setup.height,
@@ -157,16 +158,17 @@ pub fn obtain_reference(
     spp: u32,
 ) -> anyhow::Result<Reference> {
     if let Some(path) = given {
-        let r = read_reference(path)?;
+        let r = read_reference(path).map_err(BadInput::from_error)?;
         if (r.mean.width, r.mean.height) != (setup.width as usize, setup.height as usize) {
-            bail!(
+            return Err(BadInput(format!(
                 "reference {} is {}x{} but the renders are {}x{} (set --width/--height)",
                 path.display(),
                 r.mean.width,
                 r.mean.height,
                 setup.width,
                 setup.height
-            );
+            ))
+            .into());
         }
         if let Some(m) = &r.meta {
             if m.scene_hash != format!("{:016x}", setup.hash) {

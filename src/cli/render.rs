@@ -1,14 +1,14 @@
 //! `manylights render SCENE -o OUT.exr`: render direct lighting and print one summary.
 
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
-use anyhow::bail;
 use clap::Args;
 use serde::Serialize;
 
-use super::options::{RenderOptionsArgs, RENDER_DEFAULTS};
+use super::options::{check_resolution, RenderOptionsArgs, RENDER_DEFAULTS};
+use super::output::check_output_path;
 use crate::image::{write_atomically, write_exr, write_png_preview, RgbImage};
 use crate::integrator::{render, PreparedScene, RenderOptions, RenderStats, Strategy};
 use crate::measure::{camera_or_framing, EstimatorChoice};
@@ -30,7 +30,7 @@ pub struct RenderArgs {
     #[arg(long)]
     pub png: Option<PathBuf>,
     /// Exposure of the PNG preview in stops.
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, value_parser = finite)]
     pub exposure: f32,
     /// Also write this summary as JSON.
     #[arg(long)]
@@ -114,34 +114,6 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Fails early (before a long render) when an output file could never be written.
-pub(crate) fn check_output_path(path: &Path, extension: &str) -> anyhow::Result<()> {
-    if path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase)
-        .as_deref()
-        != Some(extension)
-    {
-        bail!(
-            "output {}: expected a .{extension} file name",
-            path.display()
-        );
-    }
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    if !dir.is_dir() {
-        bail!(
-            "output {}: folder {} does not exist",
-            path.display(),
-            dir.display()
-        );
-    }
-    Ok(())
-}
-
 fn render_scene(
     args: &RenderArgs,
     choice: EstimatorChoice,
@@ -156,6 +128,7 @@ fn render_scene(
 
     let camera = camera_or_framing(&scene, &o.scene);
     let (width, height) = camera.resolution(o.width, o.height);
+    check_resolution(width, height)?;
 
     let prepared = PreparedScene::new(scene, choice.selector);
     seconds.bvh_build = prepared.bvh_seconds;
@@ -234,6 +207,15 @@ fn render_scene(
         seconds,
         stats,
     })
+}
+
+fn finite(s: &str) -> Result<f32, String> {
+    let x: f32 = s.parse().map_err(|e| format!("{e}"))?;
+    if x.is_finite() {
+        Ok(x)
+    } else {
+        Err(format!("must be a finite number, got {s}"))
+    }
 }
 
 fn print_summary(s: &RenderSummary) {

@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use anyhow::{ensure, Context};
+use anyhow::{anyhow, ensure, Context};
 use exr::prelude::{
     read, AnyChannel, AnyChannels, Compression, Encoding, FlatSamples, Image, Layer,
     LayerAttributes, LineOrder, ReadChannels, ReadLayers, SmallVec, WritableImage,
@@ -99,7 +99,14 @@ pub fn read_exr_rgb(path: &Path) -> anyhow::Result<(RgbImage, Option<RgbImage>)>
         .first_valid_layer()
         .all_attributes()
         .from_file(path)
-        .with_context(|| format!("cannot read {} as OpenEXR", path.display()))?;
+        .map_err(|e| match e {
+            exr::error::Error::Invalid(why) => anyhow!(
+                "{}: not a valid OpenEXR file, truncated or corrupt ({why})",
+                path.display()
+            ),
+            other => anyhow::Error::new(other)
+                .context(format!("cannot read {} as OpenEXR", path.display())),
+        })?;
     let layer = image.layer_data;
     let (width, height) = (layer.size.0, layer.size.1);
     let channels = &layer.channel_data.list;

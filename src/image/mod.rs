@@ -13,7 +13,9 @@ pub use self::atomic::write_atomically;
 pub use self::exr::{read_exr_rgb, write_exr};
 pub use self::png::{write_png_preview, write_rgb8};
 
-use anyhow::ensure;
+use std::path::Path;
+
+use anyhow::{bail, ensure};
 
 /// Linear RGB image, row-major with row 0 at the top:
 /// pixel (x, y) is `pixels[y * width + x]`.
@@ -43,6 +45,29 @@ pub(crate) fn check_image(image: &RgbImage, what: &str) -> anyhow::Result<()> {
         image.height,
         image.pixels.len()
     );
+    Ok(())
+}
+
+/// Fails, naming the file, the layer, the pixel (x, y from the top left), the channel and the
+/// value, at the first sample of `image` that is not `valid`; `rule` says what valid means.
+pub fn check_samples(
+    image: &RgbImage,
+    path: &Path,
+    layer: &str,
+    rule: &str,
+    valid: impl Fn(f32) -> bool,
+) -> anyhow::Result<()> {
+    let bad = image.pixels.iter().enumerate().find_map(|(i, p)| {
+        let c = p.iter().position(|&v| !valid(v))?;
+        Some((i % image.width.max(1), i / image.width.max(1), c, p[c]))
+    });
+    if let Some((x, y, c, value)) = bad {
+        bail!(
+            "{}: {layer} pixel ({x}, {y}) channel {} is {value}, expected {rule}",
+            path.display(),
+            ["R", "G", "B"][c]
+        );
+    }
     Ok(())
 }
 

@@ -20,7 +20,7 @@ use crate::image::RgbImage;
 use crate::integrator::Strategy;
 use crate::lights::EnvironmentMap;
 use crate::sampling::sampler::SamplerKind;
-use crate::scene::{load_gltf, Camera, CameraChoice, Scene};
+use crate::scene::{load_gltf_bytes, read_scene_file, scene_folder, Camera, CameraChoice, Scene};
 use crate::select::SelectorKind;
 
 /// One estimator configuration: the selector, the strategy, K × N and the sample sequence.
@@ -57,13 +57,10 @@ impl SceneSetup {
         width: u32,
         height: Option<u32>,
     ) -> anyhow::Result<SceneSetup> {
-        let scene = load_gltf(path, &camera.cloned().unwrap_or_default())?;
-        // Hash the bytes the loader just accepted (a second read; scenes are small next to a
-        // render and the loader owns its buffer).
-        let bytes = std::fs::read(path).map_err(|source| crate::scene::LoadError::Io {
-            path: path.into(),
-            source,
-        })?;
+        // One read: the bytes the loader accepts are the bytes hashed.
+        let bytes = read_scene_file(path)?;
+        let choice = camera.cloned().unwrap_or_default();
+        let scene = load_gltf_bytes(&bytes, path, scene_folder(path), &choice)?;
         let cam = camera_or_framing(&scene, path);
         let (width, height) = cam.resolution(width, height);
         Ok(SceneSetup {

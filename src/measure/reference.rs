@@ -13,7 +13,7 @@ use serde::{Deserialize, Serialize};
 use super::metrics::REL_MSE_EPSILON;
 use super::progressive::{render_progressive, Budget, PassCount};
 use super::{fnv1a64, mean_image, EstimatorChoice, SceneSetup};
-use crate::image::{read_exr_rgb, write_atomically, write_exr, RgbImage};
+use crate::image::{check_samples, read_exr_rgb, write_atomically, write_exr, RgbImage};
 use crate::integrator::{PreparedScene, RenderOptions, Strategy};
 use crate::sampling::sampler::SamplerKind;
 use crate::select::SelectorKind;
@@ -181,9 +181,17 @@ pub fn write_reference(reference: &Reference) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Reads a reference EXR and, when present, its sidecar.
+/// Reads a reference EXR and, when present, its sidecar. Refuses a mean that is not finite
+/// or a variance that is not finite and ≥ 0 (the renderer writes neither; an error measured
+/// against one would be NaN), naming the pixel.
 pub fn read_reference(path: &Path) -> anyhow::Result<Reference> {
     let (mean, variance) = read_exr_rgb(path)?;
+    check_samples(&mean, path, "mean", "a finite value", f32::is_finite)?;
+    if let Some(v) = &variance {
+        check_samples(v, path, "variance", "a finite value ≥ 0", |x| {
+            x.is_finite() && x >= 0.0
+        })?;
+    }
     let sidecar = sidecar_path(path);
     let meta = if sidecar.exists() {
         let text = std::fs::read_to_string(&sidecar)

@@ -16,6 +16,7 @@
 //! texture read through another set is an error rather than a silently wrong picture. A missing,
 //! unreadable or undecodable image is an error naming the image and its file.
 
+use std::io::Read;
 use std::path::{Path, PathBuf};
 
 use base64::Engine;
@@ -71,12 +72,49 @@ const MAX_NODE_DEPTH: usize = 256;
 
 /// Loads the default scene of a glTF or GLB file.
 pub fn load_gltf(path: &Path, camera: &CameraChoice) -> Result<Scene, LoadError> {
-    let bytes = std::fs::read(path).map_err(|source| LoadError::Io {
+    let bytes = read_scene_file(path)?;
+    load_gltf_bytes(&bytes, path, scene_folder(path), camera)
+}
+
+/// The folder external buffer URIs of the scene file `path` resolve against.
+pub fn scene_folder(path: &Path) -> &Path {
+    path.parent().unwrap_or(Path::new("."))
+}
+
+/// Reads a scene file's bytes. It must be a regular file (a device such as /dev/zero or a FIFO
+/// would never end). A GLB is read only as far as its header's total length says; when the file
+/// is shorter, only what is there is read (the loader then reports the truncation), so a header
+/// claiming gigabytes allocates nothing.
+pub fn read_scene_file(path: &Path) -> Result<Vec<u8>, LoadError> {
+    let io = |source: std::io::Error| LoadError::Io {
         path: path.into(),
         source,
-    })?;
-    let base_dir = path.parent().unwrap_or(Path::new("."));
-    load_gltf_bytes(&bytes, path, base_dir, camera)
+    };
+    // Checked before opening: opening a FIFO for reading blocks until a writer appears.
+    let meta = std::fs::metadata(path).map_err(io)?;
+    if !meta.is_file() {
+        return Err(io(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "not a regular file",
+        )));
+    }
+    let mut file = std::fs::File::open(path).map_err(io)?;
+    let size = meta.len();
+    let mut header = Vec::with_capacity(12);
+    (&mut file).take(12).read_to_end(&mut header).map_err(io)?;
+    let limit = match header.get(8..12) {
+        Some(l) if header.starts_with(b"glTF") => {
+            u64::from(u32::from_le_bytes([l[0], l[1], l[2], l[3]])).min(size)
+        }
+        _ => size,
+    };
+    let mut bytes = header;
+    let rest = limit.saturating_sub(bytes.len() as u64);
+    bytes
+        .try_reserve_exact(usize::try_from(rest).unwrap_or(usize::MAX))
+        .map_err(|e| io(std::io::Error::new(std::io::ErrorKind::OutOfMemory, e)))?;
+    file.take(rest).read_to_end(&mut bytes).map_err(io)?;
+    Ok(bytes)
 }
 
 /// Loads the default scene of a glTF or GLB file already in memory. `path_for_messages` names
@@ -191,20 +229,56 @@ pub fn load_gltf_bytes(
     Ok(scene)
 }
 
-/// Checks what the `gltf` crate's GLB reader takes on trust: the header's total length must
-/// cover at least the header itself (a smaller one underflows inside the crate).
+/// Checks what the `gltf` crate's GLB reader takes on trust, so that a truncated file or one
+/// whose header or chunks claim more bytes than it has gets a message saying so: the header's
+/// total length must cover the header (a smaller one underflows inside the crate) and fit in
+/// the bytes present, and the JSON chunk and the optional BIN chunk after it must fit in it.
 fn check_glb_header(bytes: &[u8]) -> Result<(), String> {
     if !bytes.starts_with(b"glTF") {
         return Ok(());
     }
-    let Some(length) = bytes.get(8..12) else {
+    let word = |bytes: &[u8], at: usize| {
+        bytes
+            .get(at..at + 4)
+            .map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]))
+    };
+    let Some(length) = word(bytes, 8) else {
         return Err(format!("GLB header is truncated ({} bytes)", bytes.len()));
     };
-    let length = u32::from_le_bytes([length[0], length[1], length[2], length[3]]);
     if length < 12 {
         return Err(format!(
             "GLB header declares a total length of {length} bytes"
         ));
+    }
+    let length = length as usize;
+    if length > bytes.len() {
+        return Err(format!(
+            "GLB header declares a total length of {length} bytes but the file has {} \
+             (truncated?)",
+            bytes.len()
+        ));
+    }
+    let bytes = &bytes[..length];
+    let mut at = 12;
+    for chunk in ["JSON", "BIN"] {
+        if chunk == "BIN" && at >= length {
+            break;
+        }
+        let (Some(chunk_length), Some(_)) = (word(bytes, at), word(bytes, at + 4)) else {
+            return Err(format!(
+                "GLB {chunk} chunk header at byte {at} is cut off by the end of the file \
+                 ({length} bytes)"
+            ));
+        };
+        let end = (at + 8).saturating_add(chunk_length as usize);
+        if end > length {
+            return Err(format!(
+                "GLB {chunk} chunk at byte {at} declares {chunk_length} bytes but only {} \
+                 remain in the file (truncated?)",
+                length.saturating_sub(at + 8)
+            ));
+        }
+        at = end;
     }
     Ok(())
 }
@@ -251,7 +325,7 @@ fn load_buffers(
                 )
             })?,
             gltf::buffer::Source::Uri(uri) => {
-                read_uri(uri, base_dir).map_err(|m| (element.clone(), m))?
+                read_uri(uri, Some(buffer.length()), base_dir).map_err(|m| (element.clone(), m))?
             }
         };
         if data.len() < buffer.length() {
@@ -269,7 +343,13 @@ fn load_buffers(
     Ok(buffers)
 }
 
-fn read_uri(uri: &str, base_dir: &Path) -> Result<Vec<u8>, String> {
+/// Image files (which declare no length) larger than this are refused before reading.
+const MAX_IMAGE_FILE_BYTES: u64 = 1 << 30;
+
+/// The bytes of a URI: a base64 data URI, or a regular file — for a buffer the first `length`
+/// bytes (its byteLength), refused before reading when the file is shorter; for an image (None)
+/// the whole file, refused before reading beyond MAX_IMAGE_FILE_BYTES.
+fn read_uri(uri: &str, length: Option<usize>, base_dir: &Path) -> Result<Vec<u8>, String> {
     if let Some(rest) = uri.strip_prefix("data:") {
         let (_, payload) = rest
             .split_once(";base64,")
@@ -282,11 +362,37 @@ fn read_uri(uri: &str, base_dir: &Path) -> Result<Vec<u8>, String> {
     let cannot =
         |e: &dyn std::fmt::Display| format!("cannot read '{uri}' ({}): {e}", file.display());
     // Only regular files: a device such as /dev/zero or a FIFO would never end or never answer.
+    // Checked before opening: opening a FIFO for reading blocks until a writer appears.
     let meta = std::fs::metadata(&file).map_err(|e| cannot(&e))?;
     if !meta.is_file() {
         return Err(cannot(&"not a regular file"));
     }
-    std::fs::read(&file).map_err(|e| cannot(&e))
+    let mut reader = std::fs::File::open(&file).map_err(|e| cannot(&e))?;
+    let Some(length) = length else {
+        if meta.len() > MAX_IMAGE_FILE_BYTES {
+            return Err(cannot(&format_args!(
+                "{} bytes, more than the {MAX_IMAGE_FILE_BYTES} an image may have",
+                meta.len()
+            )));
+        }
+        let mut bytes = Vec::new();
+        reader.read_to_end(&mut bytes).map_err(|e| cannot(&e))?;
+        return Ok(bytes);
+    };
+    if meta.len() < length as u64 {
+        return Err(format!(
+            "declares {length} bytes but '{uri}' ({}) has only {}",
+            file.display(),
+            meta.len()
+        ));
+    }
+    let mut bytes = Vec::new();
+    bytes.try_reserve_exact(length).map_err(|e| cannot(&e))?;
+    (&mut reader)
+        .take(length as u64)
+        .read_to_end(&mut bytes)
+        .map_err(|e| cannot(&e))?;
+    Ok(bytes)
 }
 
 /// Decodes %XX escapes in a relative URI (spaces are commonly written as %20).
@@ -397,7 +503,8 @@ impl Loader<'_> {
                 if !uri.starts_with("data:") {
                     image_element = format!("{image_element} '{uri}'");
                 }
-                let bytes = read_uri(uri, self.base_dir).map_err(|m| (image_element.clone(), m))?;
+                let bytes =
+                    read_uri(uri, None, self.base_dir).map_err(|m| (image_element.clone(), m))?;
                 std::borrow::Cow::Owned(bytes)
             }
         };

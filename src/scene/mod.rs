@@ -13,7 +13,9 @@ pub mod texture;
 pub mod texture_decode;
 
 pub use camera::Camera;
-pub use gltf_load::{load_gltf, load_gltf_bytes, CameraChoice, LoadError};
+pub use gltf_load::{
+    load_gltf, load_gltf_bytes, read_scene_file, scene_folder, CameraChoice, LoadError,
+};
 pub use texture::{Texture, Wrap};
 
 use std::sync::Arc;
