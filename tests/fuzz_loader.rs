@@ -127,6 +127,12 @@ fn install_hook() {
 fn corpus() -> Vec<Vec<u8>> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let cornell_glb = std::fs::read(root.join("scenes/cornell.glb")).expect("scenes/cornell.glb");
+    // Embedded PNG emissive and base-colour textures with samplers and TEXCOORD_0.
+    let textured_glb =
+        std::fs::read(root.join("scenes/textured.glb")).expect("scenes/textured.glb");
+    // KHR_materials_specular, one- and two-sided emitters, extreme radiances.
+    let extremes_glb =
+        std::fs::read(root.join("scenes/extremes.glb")).expect("scenes/extremes.glb");
     // scenes/town.glb is ~0.5 MB: too slow per execution. A 50-light town has the same structure.
     let town = generate::many_lights(1, 50).to_glb_bytes();
     let dir = tempfile::tempdir().unwrap();
@@ -157,6 +163,8 @@ fn corpus() -> Vec<Vec<u8>> {
         cornell_gltf,
         serde_json::to_vec(&lit).unwrap(),
         sparse_triangle(),
+        textured_glb,
+        extremes_glb,
     ]
 }
 

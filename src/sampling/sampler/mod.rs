@@ -18,7 +18,6 @@
 //! | 3, 4 | point on the chosen light                 | (S·K + k)·N + n  | spp·K·N           |
 //! | 5    | BSDF lobe                                 | S·K·N + j        | spp·K·N           |
 //! | 6, 7 | BSDF or hemisphere direction              | S·K·N + j        | spp·K·N           |
-//! | 8, 9 | reserved: an environment light sampled apart from the K lights (same index as 3, 4) | | |
 //!
 //! So the K×N samples of one camera sample are distinct points of one well-distributed set per
 //! dimension group. Sobol reads the lobe (dim 5) as the third coordinate of the direction's
