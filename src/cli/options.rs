@@ -142,7 +142,8 @@ fn single<T: Copy + std::fmt::Debug>(
     }
 }
 
-fn finite(s: &str) -> Result<f32, String> {
+/// Parses a finite f32 (clap value parser).
+pub fn finite(s: &str) -> Result<f32, String> {
     let x: f32 = s.parse().map_err(|e| format!("{e}"))?;
     if x.is_finite() {
         Ok(x)

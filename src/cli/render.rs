@@ -7,7 +7,7 @@ use std::time::Instant;
 use clap::Args;
 use serde::Serialize;
 
-use super::options::{check_resolution, RenderOptionsArgs, RENDER_DEFAULTS};
+use super::options::{check_resolution, finite, RenderOptionsArgs, RENDER_DEFAULTS};
 use super::output::check_output_path;
 use crate::image::{write_atomically, write_exr, write_png_preview, RgbImage};
 use crate::integrator::{render, PreparedScene, RenderOptions, RenderStats, Strategy};
@@ -207,15 +207,6 @@ fn render_scene(
         seconds,
         stats,
     })
-}
-
-fn finite(s: &str) -> Result<f32, String> {
-    let x: f32 = s.parse().map_err(|e| format!("{e}"))?;
-    if x.is_finite() {
-        Ok(x)
-    } else {
-        Err(format!("must be a finite number, got {s}"))
-    }
 }
 
 fn print_summary(s: &RenderSummary) {

@@ -574,25 +574,8 @@ impl BinWriter {
         self.views.len() - 1
     }
 
-    /// Adds a VEC2 float accessor (texture coordinates).
-    fn vec2(&mut self, values: &[[f32; 2]]) -> usize {
-        let bytes: Vec<u8> = values
-            .iter()
-            .flatten()
-            .flat_map(|v| v.to_le_bytes())
-            .collect();
-        let view = self.view(&bytes, Some(ARRAY_BUFFER));
-        self.accessors.push(json!({
-            "bufferView": view,
-            "componentType": FLOAT,
-            "count": values.len(),
-            "type": "VEC2",
-        }));
-        self.accessors.len() - 1
-    }
-
-    /// Adds a VEC3 float accessor, with min/max when `bounds` is set.
-    fn vec3(&mut self, values: &[[f32; 3]], bounds: bool) -> usize {
+    /// Adds a float accessor of `N`-vectors ("VEC2", "VEC3"), with min/max when `bounds` is set.
+    fn floats<const N: usize>(&mut self, values: &[[f32; N]], kind: &str, bounds: bool) -> usize {
         let bytes: Vec<u8> = values
             .iter()
             .flatten()
@@ -603,7 +586,7 @@ impl BinWriter {
             "bufferView": view,
             "componentType": FLOAT,
             "count": values.len(),
-            "type": "VEC3",
+            "type": kind,
         });
         if bounds {
             let (min, max) = bounds_of(values);
@@ -643,12 +626,15 @@ impl BinWriter {
 /// Writes a mesh's buffers into `bin` and returns its JSON object.
 fn mesh_json(mesh: &MeshData, bin: &mut BinWriter) -> Value {
     let mut attributes = Map::new();
-    attributes.insert("POSITION".into(), json!(bin.vec3(&mesh.positions, true)));
+    attributes.insert(
+        "POSITION".into(),
+        json!(bin.floats(&mesh.positions, "VEC3", true)),
+    );
     if let Some(normals) = &mesh.normals {
-        attributes.insert("NORMAL".into(), json!(bin.vec3(normals, false)));
+        attributes.insert("NORMAL".into(), json!(bin.floats(normals, "VEC3", false)));
     }
     if let Some(uvs) = &mesh.uvs {
-        attributes.insert("TEXCOORD_0".into(), json!(bin.vec2(uvs)));
+        attributes.insert("TEXCOORD_0".into(), json!(bin.floats(uvs, "VEC2", false)));
     }
     let mut primitive = json!({
         "attributes": attributes,
@@ -767,9 +753,9 @@ fn num_array(values: &[f32]) -> Value {
 }
 
 /// Component-wise minimum and maximum of a non-empty point list.
-fn bounds_of(points: &[[f32; 3]]) -> ([f32; 3], [f32; 3]) {
+fn bounds_of<const N: usize>(points: &[[f32; N]]) -> ([f32; N], [f32; N]) {
     points.iter().fold(
-        ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]),
+        ([f32::INFINITY; N], [f32::NEG_INFINITY; N]),
         |(lo, hi), p| {
             (
                 std::array::from_fn(|k| lo[k].min(p[k])),
