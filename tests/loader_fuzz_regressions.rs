@@ -221,3 +221,44 @@ fn buffer_uri_that_is_not_a_regular_file_is_an_error() {
         assert!(start.elapsed().as_secs() < 5);
     }
 }
+
+/// The triangle with an emissive material whose texture reads image 0, described by `image`.
+fn textured_triangle(image: Value) -> Value {
+    let mut doc = triangle();
+    doc["meshes"][0]["primitives"][0]["material"] = json!(0);
+    doc["materials"] = json!([{
+        "emissiveFactor": [1, 1, 1],
+        "emissiveTexture": {"index": 0}
+    }]);
+    doc["textures"] = json!([{"source": 0}]);
+    doc["images"] = json!([image]);
+    doc
+}
+
+/// Fuzzer (textured.glb seed): gltf image.rs:125 and :128 `Option::unwrap()` on `None` —
+/// `Image::source` unwraps the mimeType of a bufferView image, and the uri of an image that has
+/// neither; and image.rs:124 indexes its bufferView unchecked.
+#[test]
+fn image_without_mime_type_or_source_is_an_error() {
+    assert_error(
+        load_json(&textured_triangle(json!({"bufferView": 0}))),
+        "needs a mimeType",
+    );
+    assert_error(
+        load_json(&textured_triangle(json!({"name": "nothing"}))),
+        "neither uri nor bufferView",
+    );
+    assert_error(
+        load_json(&textured_triangle(
+            json!({"bufferView": 7, "mimeType": "image/png"}),
+        )),
+        "buffer view 7 does not exist",
+    );
+    // The same image with its mimeType reaches the decoder, which refuses the float bytes.
+    assert_error(
+        load_json(&textured_triangle(
+            json!({"bufferView": 0, "mimeType": "image/png"}),
+        )),
+        "neither PNG nor JPEG",
+    );
+}

@@ -136,7 +136,7 @@ pub fn load_gltf_bytes(
     let gltf::Gltf { document, blob } =
         gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| format(e.to_string()))?;
     let root = document.into_json();
-    check_position_indices(&root).map_err(format)?;
+    check_unchecked_indices(&root).map_err(format)?;
     let document = gltf::Document::from_json(root).map_err(|e| format(e.to_string()))?;
     let invalid = |element: String, message: String| LoadError::Invalid {
         path: path.into(),
@@ -284,7 +284,7 @@ fn check_glb_header(bytes: &[u8]) -> Result<(), String> {
 }
 
 /// The `gltf` crate's validator reads each primitive's POSITION accessor without a bounds check.
-fn check_position_indices(root: &gltf::json::Root) -> Result<(), String> {
+fn check_unchecked_indices(root: &gltf::json::Root) -> Result<(), String> {
     use gltf::json::validation::Checked;
     for (m, mesh) in root.meshes.iter().enumerate() {
         for (p, prim) in mesh.primitives.iter().enumerate() {
@@ -299,6 +299,25 @@ fn check_position_indices(root: &gltf::json::Root) -> Result<(), String> {
                     ));
                 }
             }
+        }
+    }
+    // `Image::source` unwraps these (found by the fuzzer).
+    for (i, image) in root.images.iter().enumerate() {
+        match (&image.buffer_view, &image.uri) {
+            (Some(view), _) if view.value() >= root.buffer_views.len() => {
+                return Err(format!(
+                    "images[{i}].bufferView: buffer view {} does not exist ({} buffer views)",
+                    view.value(),
+                    root.buffer_views.len()
+                ))
+            }
+            (Some(_), _) if image.mime_type.is_none() => {
+                return Err(format!(
+                    "images[{i}]: an image in a bufferView needs a mimeType"
+                ))
+            }
+            (None, None) => return Err(format!("images[{i}]: has neither uri nor bufferView")),
+            _ => {}
         }
     }
     Ok(())
