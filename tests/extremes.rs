@@ -217,20 +217,10 @@ fn shading_point_a_micrometre_below_a_large_emitter_gets_pi_l() {
             "premise: the emitter fills the hemisphere, E = π·L"
         );
         let eye = target + Vec3::new(0.0, 0.0, 0.5 * gap);
-        let (px, stats) = probe(
-            &scene,
-            SelectorKind::Power,
-            Strategy::LightSolidAngle,
-            eye,
-            target,
-            20_000,
-        );
-        assert_matches(
-            &format!("light-solid-angle, {label}"),
-            &px,
-            &stats,
-            expected,
-        );
+        for strategy in [Strategy::LightSolidAngle, Strategy::Mis] {
+            let (px, stats) = probe(&scene, SelectorKind::Power, strategy, eye, target, 20_000);
+            assert_matches(&format!("{strategy:?}, {label}"), &px, &stats, expected);
+        }
     }
 }
 
