@@ -74,6 +74,10 @@ pub struct BenchRow {
     pub time_budget: Option<f64>,
     pub nan_samples: u64,
     pub inf_samples: u64,
+    /// Camera samples above `FIREFLY_FACTOR` × their pixel's mean luminance, over all repeats.
+    pub fireflies: u64,
+    /// The largest luminance of one camera sample over all repeats.
+    pub max_sample_luminance: f64,
     /// The last repeat's image (for error images).
     #[serde(skip)]
     pub image: RgbImage,
@@ -137,6 +141,8 @@ struct Run {
     variance: f64,
     nan: u64,
     inf: u64,
+    fireflies: u64,
+    max_sample_luminance: f64,
     image: RgbImage,
 }
 
@@ -205,6 +211,8 @@ pub fn run(
                             variance: mean_variance(&film),
                             nan: stats.nan_samples,
                             inf: stats.inf_samples,
+                            fireflies: stats.fireflies,
+                            max_sample_luminance: stats.max_sample_luminance,
                             image,
                         }
                     })
@@ -259,6 +267,11 @@ fn aggregate(e: EstimatorChoice, plan: &BenchPlan, runs: Vec<Run>) -> BenchRow {
         time_budget: plan.time_budget,
         nan_samples: runs.iter().map(|x| x.nan).sum(),
         inf_samples: runs.iter().map(|x| x.inf).sum(),
+        fireflies: runs.iter().map(|x| x.fireflies).sum(),
+        max_sample_luminance: runs
+            .iter()
+            .map(|x| x.max_sample_luminance)
+            .fold(0.0, f64::max),
         image: runs.into_iter().last().expect("at least one repeat").image,
     }
 }

@@ -9,7 +9,7 @@ use super::bench::BenchRow;
 use crate::image::write_atomically;
 
 /// Column headers and one row's cells, shared by the table, CSV and Markdown.
-const HEADERS: [&str; 16] = [
+const HEADERS: [&str; 18] = [
     "config",
     "spp",
     "seconds",
@@ -25,10 +25,12 @@ const HEADERS: [&str; 16] = [
     "eff 1/(var s)",
     "MSE ratio",
     "eff ratio",
+    "fireflies",
+    "max sample",
     "biased",
 ];
 
-fn cells(r: &BenchRow) -> [String; 16] {
+fn cells(r: &BenchRow) -> [String; 18] {
     let e = |x: f64| format!("{x:.3e}");
     let opt = |x: Option<f64>| x.map_or("-".into(), e);
     let (lo, hi) = r
@@ -50,6 +52,8 @@ fn cells(r: &BenchRow) -> [String; 16] {
         opt(r.efficiency_variance),
         format!("{:.3}", r.mse_ratio),
         format!("{:.3}", r.efficiency_ratio),
+        r.fireflies.to_string(),
+        e(r.max_sample_luminance),
         if r.biased { "yes" } else { "no" }.into(),
     ]
 }
@@ -65,7 +69,7 @@ fn short(x: f64) -> String {
 
 /// The rows as a right-aligned text table (config left-aligned).
 pub fn table(rows: &[BenchRow]) -> String {
-    let all: Vec<[String; 16]> = rows.iter().map(cells).collect();
+    let all: Vec<[String; 18]> = rows.iter().map(cells).collect();
     let widths: Vec<usize> = (0..HEADERS.len())
         .map(|c| {
             all.iter()
