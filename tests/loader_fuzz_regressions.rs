@@ -70,8 +70,16 @@ fn position_accessor_index_past_the_accessors_is_an_error() {
 /// computed unchecked (in release it wraps and can select a wrong but in-bounds range).
 #[test]
 fn accessor_count_whose_extent_overflows_is_an_error() {
+    // As POSITION of an unindexed primitive, the count is refused as a triangle count first.
     let mut doc = triangle();
     doc["accessors"][0]["count"] = json!(6148914691236517206u64);
+    assert_error(load_json(&doc), "declares 2049638230412172402 triangles");
+    // As NORMAL it reaches the accessor's extent check.
+    let mut doc = triangle();
+    let mut huge = doc["accessors"][0].clone();
+    huge["count"] = json!(6148914691236517206u64);
+    doc["accessors"].as_array_mut().unwrap().push(huge);
+    doc["meshes"][0]["primitives"][0]["attributes"]["NORMAL"] = json!(1);
     assert_error(load_json(&doc), "do not fit in buffer view 0");
 }
 
@@ -106,8 +114,12 @@ fn buffer_view_whose_end_overflows_is_an_error() {
 /// a huge allocation (the allocator guard of the fuzzer aborts on these).
 #[test]
 fn viewless_sparse_accessor_with_a_huge_count_is_an_error() {
+    // As NORMAL (as POSITION the triangle cap would refuse the count first).
     let mut doc = triangle();
-    let acc = &mut doc["accessors"][0];
+    let normal = doc["accessors"][0].clone();
+    doc["accessors"].as_array_mut().unwrap().push(normal);
+    doc["meshes"][0]["primitives"][0]["attributes"]["NORMAL"] = json!(1);
+    let acc = &mut doc["accessors"][1];
     acc.as_object_mut().unwrap().remove("bufferView");
     acc["count"] = json!(1u64 << 40);
     acc["sparse"] = json!({
@@ -261,4 +273,37 @@ fn image_without_mime_type_or_source_is_an_error() {
         )),
         "neither PNG nor JPEG",
     );
+}
+
+/// Heavy instancing: 40 nodes each instancing a mesh whose index accessor declares 3,000,000
+/// indices (1,000,000 triangles): 40 M triangles, more than MAX_TRIANGLES — refused from the
+/// declared counts before its (absent) 3 MB buffer file is even looked for.
+#[test]
+fn instancing_past_the_triangle_cap_is_refused_before_reading_buffers() {
+    let mut doc = triangle();
+    let indices = 3_000_000u64;
+    doc["buffers"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!({"uri": "absent-indices.bin", "byteLength": indices}));
+    doc["bufferViews"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!({"buffer": 1, "byteLength": indices}));
+    doc["accessors"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!({"bufferView": 1, "componentType": 5121, "count": indices, "type": "SCALAR"}));
+    doc["meshes"][0]["primitives"][0]["indices"] = json!(1);
+    let nodes: Vec<Value> = (0..40).map(|_| json!({"mesh": 0})).collect();
+    doc["nodes"] = json!(nodes);
+    doc["scenes"][0]["nodes"] = json!((0..40).collect::<Vec<_>>());
+    assert!(
+        40 * indices / 3 > manylights::scene::MAX_TRIANGLES,
+        "premise"
+    );
+    assert_error(load_json(&doc), "declares 40000000 triangles");
+    // Below the cap the same file gets as far as its buffer (which is absent).
+    doc["scenes"][0]["nodes"] = json!([0]);
+    assert_error(load_json(&doc), "absent-indices.bin");
 }

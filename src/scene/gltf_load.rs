@@ -70,6 +70,11 @@ pub enum LoadError {
 /// reached twice).
 const MAX_NODE_DEPTH: usize = 256;
 
+/// At most this many triangles per scene (2^25, about 12 GB once rendering structures are
+/// built): a small file whose nodes instance a mesh many times is refused, from the accessor
+/// counts it declares, before any buffer is read.
+pub const MAX_TRIANGLES: u64 = 1 << 25;
+
 /// Loads the default scene of a glTF or GLB file.
 pub fn load_gltf(path: &Path, camera: &CameraChoice) -> Result<Scene, LoadError> {
     let bytes = read_scene_file(path)?;
@@ -143,8 +148,22 @@ pub fn load_gltf_bytes(
         element,
         message,
     };
-    let buffers = load_buffers(&document, blob, base_dir).map_err(|(e, m)| invalid(e, m))?;
 
+    let scene = document
+        .default_scene()
+        .or_else(|| document.scenes().next())
+        .ok_or_else(|| invalid("scenes".into(), "the file has no scene".into()))?;
+    let declared = declared_triangles(&scene);
+    if declared > MAX_TRIANGLES {
+        return Err(invalid(
+            format!("scene {}", scene.index()),
+            format!(
+                "declares {declared} triangles over its node instances, more than the \
+                 {MAX_TRIANGLES} allowed"
+            ),
+        ));
+    }
+    let buffers = load_buffers(&document, blob, base_dir).map_err(|(e, m)| invalid(e, m))?;
     let mut loader = Loader {
         buffers: &buffers,
         base_dir,
@@ -153,10 +172,6 @@ pub fn load_gltf_bytes(
         textures: Vec::new(),
         texture_map: vec![None; document.textures().len()],
     };
-    let scene = document
-        .default_scene()
-        .or_else(|| document.scenes().next())
-        .ok_or_else(|| invalid("scenes".into(), "the file has no scene".into()))?;
 
     let mut triangles = Vec::new();
     let mut stats = LoadStats::default();
@@ -227,6 +242,36 @@ pub fn load_gltf_bytes(
     scene.stats.skipped_primitives = stats.skipped_primitives;
     scene.stats.degenerate_triangles += stats.degenerate_triangles;
     Ok(scene)
+}
+
+/// Triangles the scene's node instances declare: Σ over nodes of their mesh's triangle-mode
+/// primitives' index (or vertex) counts / 3, from the JSON alone. A node reached twice is counted
+/// once (the traversal refuses it later).
+fn declared_triangles(scene: &gltf::Scene) -> u64 {
+    let mut seen = std::collections::HashSet::new();
+    let mut stack: Vec<gltf::Node> = scene.nodes().collect();
+    let mut total = 0u64;
+    while let Some(node) = stack.pop() {
+        if !seen.insert(node.index()) {
+            continue;
+        }
+        if let Some(mesh) = node.mesh() {
+            for prim in mesh.primitives() {
+                if prim.mode() != gltf::mesh::Mode::Triangles {
+                    continue;
+                }
+                let count = match prim.indices() {
+                    Some(acc) => acc.count(),
+                    None => prim
+                        .get(&gltf::Semantic::Positions)
+                        .map_or(0, |a| a.count()),
+                };
+                total = total.saturating_add(count as u64 / 3);
+            }
+        }
+        stack.extend(node.children());
+    }
+    total
 }
 
 /// Checks what the `gltf` crate's GLB reader takes on trust, so that a truncated file or one

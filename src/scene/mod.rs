@@ -15,6 +15,7 @@ pub mod texture_decode;
 pub use camera::Camera;
 pub use gltf_load::{
     load_gltf, load_gltf_bytes, read_scene_file, scene_folder, CameraChoice, LoadError,
+    MAX_TRIANGLES,
 };
 pub use texture::{Texture, Wrap};
 
