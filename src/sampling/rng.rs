@@ -1,5 +1,6 @@
-//! Per-pixel random streams: a PCG32 generator whose state and stream are both hashed from
-//! (seed, pixel index), so an image depends on the seed only, never on thread scheduling.
+//! Seeded random streams outside the render loop: `derive_seed` for the sub-renders of a run
+//! (passes, repeats), and `PixelRng`, a PCG32 stream hashed from (seed, index) that tests and
+//! benchmarks draw from. Renders take their numbers from `sampling::sampler`.
 
 use rand_core::Rng;
 use rand_pcg::Pcg32;
@@ -17,7 +18,7 @@ pub fn derive_seed(seed: u64, index: u64) -> u64 {
     mix64(seed ^ mix64(index.wrapping_add(0x243f_6a88_85a3_08d3)))
 }
 
-/// The random stream of one pixel.
+/// A PCG32 stream whose state and increment are hashed from (seed, index).
 pub struct PixelRng(Pcg32);
 
 impl PixelRng {
