@@ -51,6 +51,8 @@ const LIGHT_CHOICE: u64 = 2;
 const LIGHT_POINT: u64 = 3;
 const BSDF_LOBE: u64 = 5;
 const BSDF_DIRECTION: u64 = 6;
+/// Dimensions in the layout (0 ..= 7).
+const DIMENSIONS: usize = 8;
 
 /// Where a camera sample's numbers come from.
 #[derive(
@@ -114,7 +116,7 @@ impl Sampler {
         };
         PixelSampler {
             sampler: *self,
-            key,
+            seeds: std::array::from_fn(|dim| subseed(key, dim as u64)),
         }
     }
 }
@@ -123,7 +125,8 @@ impl Sampler {
 #[derive(Clone, Copy, Debug)]
 pub struct PixelSampler {
     sampler: Sampler,
-    key: u64,
+    /// Each dimension's scrambling seed, derived once per pixel from its key.
+    seeds: [u64; DIMENSIONS],
 }
 
 /// Point `slot` of camera sample s in a dimension group with `per_sample` points per camera
@@ -153,7 +156,7 @@ impl PixelSampler {
         let sm = &self.sampler;
         Point {
             dim,
-            seed: subseed(self.key, dim),
+            seed: self.seeds[dim as usize],
             local: s * per_sample + slot,
             count: sm.spp * per_sample,
             absolute: (sm.first_sample + s) * per_sample + slot,
@@ -186,7 +189,7 @@ impl PixelSampler {
                 let base = |d: u64| halton::PRIMES[d as usize];
                 [
                     halton::sample(p.absolute, base(p.dim), p.seed),
-                    halton::sample(p.absolute, base(p.dim + 1), subseed(self.key, p.dim + 1)),
+                    halton::sample(p.absolute, base(p.dim + 1), self.seeds[p.dim as usize + 1]),
                 ]
             }
             SamplerKind::Sobol => sobol::sample_2d(p.absolute, p.seed),
@@ -218,7 +221,13 @@ impl CameraSample<'_> {
     /// The number that chooses light slot k's light, in [0, 1) with 53 bits.
     #[inline]
     pub fn light_choice(&self, k: u32) -> f64 {
+        const TO_UNIT: f64 = 1.0 / 9_007_199_254_740_992.0;
         let sm = &self.pixel.sampler;
+        if sm.kind == SamplerKind::Independent {
+            // All 53 bits from one hash.
+            let p = self.pixel.point(LIGHT_CHOICE, sm.k, self.s, k as u64);
+            return (hash(p.seed, p.absolute) >> 11) as f64 * TO_UNIT;
+        }
         let (p, high) = if sm.kind == SamplerKind::Sobol && sm.n == 1 {
             let p = self.pixel.point(LIGHT_POINT, sm.k, self.s, k as u64);
             let third = sobol::third(p.absolute, p.seed);
@@ -230,7 +239,7 @@ impl CameraSample<'_> {
         };
         let high = high as u64;
         let low = hash(p.seed ^ 0xa076_1d64_78bd_642f, p.absolute) >> 43;
-        ((high << 21) | low) as f64 * (1.0 / 9_007_199_254_740_992.0)
+        ((high << 21) | low) as f64 * TO_UNIT
     }
 
     /// The 2D number that places point n on light slot k's light.
