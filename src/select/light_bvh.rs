@@ -106,7 +106,7 @@ impl LightBounds {
     /// rounding never rejects a node that can reach p's upper hemisphere. The
     /// result is finite and ≥ 0 (clamped to f32::MAX), and positive results
     /// are at least f32::MIN_POSITIVE.
-    #[inline]
+    #[inline(always)]
     pub fn importance(&self, p: Vec3, n: Vec3) -> f32 {
         let centre = (self.lo + self.hi) * 0.5;
         let valid = self.phi > 0.0 && centre.is_finite() && p.is_finite() && n.is_finite();
@@ -132,7 +132,7 @@ impl LightBounds {
     }
 
     /// cos θp, or 0 when θp ≥ θe (with slack) so no emitter faces p.
-    #[inline]
+    #[inline(always)]
     fn emitter_factor(&self, sphere: Option<Subtended>) -> f32 {
         let Some(s) = sphere else {
             return 1.0; // p inside the sphere: θb = π, θp = 0
@@ -156,7 +156,7 @@ impl LightBounds {
 
 /// Receiver factor cos(max(0, θi − θb)), or 0 when that angle is ≥ 90° (with
 /// slack): the node's bounding sphere lies wholly behind the tangent plane.
-#[inline]
+#[inline(always)]
 fn receiver_factor(n: Vec3, sphere: Option<Subtended>) -> f32 {
     let Some(s) = sphere else { return 1.0 };
     if n == Vec3::ZERO {
@@ -184,6 +184,7 @@ struct Subtended {
 
 impl Subtended {
     /// `None` when p is inside the sphere (θb = π).
+    #[inline(always)]
     fn new(to_p: Vec3, dist_sq: f32, radius: f32) -> Option<Subtended> {
         (dist_sq > radius * radius).then(|| {
             let dist = dist_sq.sqrt();
@@ -368,6 +369,7 @@ fn encode_octahedral(v: Vec3) -> u32 {
 }
 
 /// Unit vector of an octahedral code.
+#[inline(always)]
 fn decode_octahedral(code: u32) -> Vec3 {
     let coord = |q: u32| (q & BOX_MAX) as f32 * (2.0 / BOX_MAX as f32) - 1.0;
     let (x, y) = (coord(code), coord(code >> 16));
@@ -452,6 +454,7 @@ impl Node {
         self.cones & LEAF_BIT != 0
     }
 
+    #[inline(always)]
     fn bounds(&self, grid: &Grid) -> LightBounds {
         LightBounds {
             lo: grid.decode(self.lo),
@@ -464,6 +467,7 @@ impl Node {
         }
     }
 
+    #[inline(always)]
     fn importance(&self, grid: &Grid, p: Vec3, n: Vec3) -> f32 {
         self.bounds(grid).importance(p, n)
     }
