@@ -15,15 +15,18 @@
 //!   child of node i is i + 1 and the node keeps the index of its right child.
 //! - The box is kept as 16-bit coordinates on a grid spanning the root's box,
 //!   the cone axis as a 2×16-bit octahedral code, cos θo and cos θe as 15-bit
-//!   numbers, plus a two-sided and a leaf bit and Φ as an f32. Every rounding
-//!   makes the bound larger (box rounded outwards, cosines rounded down, θo
-//!   widened by the axis' coding error), so quantisation can cost efficiency
-//!   but never gives 0 to a node that holds a light able to reach the receiver.
+//!   numbers, plus a two-sided and a leaf bit, Φ as an f32 and the radius of
+//!   a sphere holding the decoded box (so `importance` need not recompute it).
+//!   Every rounding makes the bound larger (box rounded outwards, cosines
+//!   rounded down, θo widened by the axis' coding error), so quantisation can
+//!   cost efficiency but never gives 0 to a node that holds a light able to
+//!   reach the receiver.
 //! - The lights are renumbered into leaf order, so a subtree covers a
-//!   contiguous range of light ids and each node keeps the first id of its
-//!   range. `pmf` then finds a light by descending towards its id, multiplying
-//!   the very same per-node probabilities that `sample` does, at any depth and
-//!   without per-light bit trails or parent links.
+//!   contiguous range of light ids: a leaf keeps its light's id, and the first
+//!   id of a right child's range is its parent's plus half the index distance
+//!   between them. `pmf` then finds a light by descending towards its id,
+//!   multiplying the very same per-node probabilities that `sample` does, at
+//!   any depth and without per-light bit trails or parent links.
 //!
 //! The build is top-down with a binned cost over all three axes (Φ times the
 //! orientation measure M_Ω times the surface area, scaled by how thin the node
@@ -108,15 +111,28 @@ impl LightBounds {
     /// are at least f32::MIN_POSITIVE.
     #[inline(always)]
     pub fn importance(&self, p: Vec3, n: Vec3) -> f32 {
-        let centre = (self.lo + self.hi) * 0.5;
+        self.importance_with_radius(p, n, bounding_radius)
+    }
+
+    /// [`importance`](Self::importance) with the bounding sphere's radius
+    /// given by `radius(centre, half_diagonal_sq)`: [`bounding_radius`] or a
+    /// value precomputed by it.
+    #[inline(always)]
+    fn importance_with_radius(
+        &self,
+        p: Vec3,
+        n: Vec3,
+        radius: impl FnOnce(Vec3, f32) -> f32,
+    ) -> f32 {
+        let (centre, half_diagonal_sq) = self.centre_and_half_diagonal_sq();
         let valid = self.phi > 0.0 && centre.is_finite() && p.is_finite() && n.is_finite();
         if !valid {
             return 0.0;
         }
-        let half_diagonal_sq = ((self.hi - self.lo) * 0.5).length_squared();
+        let radius = radius(centre, half_diagonal_sq);
         let to_p = p - centre;
         let dist_sq = to_p.length_squared();
-        let sphere = Subtended::new(to_p, dist_sq, bounding_radius(centre, half_diagonal_sq));
+        let sphere = Subtended::new(to_p, dist_sq, radius);
         let emitted = self.emitter_factor(sphere);
         if emitted == 0.0 {
             return 0.0;
@@ -129,6 +145,13 @@ impl LightBounds {
         } else {
             0.0
         }
+    }
+
+    /// The box's centre and its half diagonal squared.
+    #[inline(always)]
+    fn centre_and_half_diagonal_sq(&self) -> (Vec3, f32) {
+        let centre = (self.lo + self.hi) * 0.5;
+        (centre, ((self.hi - self.lo) * 0.5).length_squared())
     }
 
     /// cos θp, or 0 when θp ≥ θe (with slack) so no emitter faces p.
@@ -418,18 +441,19 @@ struct Node {
     phi: f32,
     /// Bits 0–14 cos θo, 15–29 cos θe, 30 two-sided, 31 leaf.
     cones: u32,
-    /// Right child (interior node) or the light id (leaf).
+    /// Right child (interior node) or the light id (leaf). The first light id
+    /// of a right child's range is its parent's plus half the distance from
+    /// parent to right child (the left subtree's 2k − 1 nodes hold k lights).
     link: u32,
-    /// First light id of the node's range.
-    first: u32,
+    /// [`bounding_radius`] of the decoded box, precomputed for `importance`.
+    radius: f32,
 }
 
 impl Node {
     /// A node with its place in the tree only; bounds come later.
-    fn topology(link: u32, first: u32, leaf: bool) -> Node {
+    fn topology(link: u32, leaf: bool) -> Node {
         Node {
             link,
-            first,
             cones: if leaf { LEAF_BIT } else { 0 },
             ..Node::default()
         }
@@ -440,13 +464,18 @@ impl Node {
         let (axis, cos_o) = encode_cone(b.w, b.cos_theta_o);
         let cos_e = encode_cos(f64::from(b.cos_theta_e));
         let two_sided = if b.two_sided { TWO_SIDED_BIT } else { 0 };
-        Node {
+        let node = Node {
             lo: grid.encode(b.lo, false),
             hi: grid.encode(b.hi, true),
             axis,
             phi: b.phi,
             cones: cos_o | cos_e << 15 | two_sided | (self.cones & LEAF_BIT),
             ..self
+        };
+        let (centre, half_diagonal_sq) = node.bounds(grid).centre_and_half_diagonal_sq();
+        Node {
+            radius: bounding_radius(centre, half_diagonal_sq),
+            ..node
         }
     }
 
@@ -469,7 +498,14 @@ impl Node {
 
     #[inline(always)]
     fn importance(&self, grid: &Grid, p: Vec3, n: Vec3) -> f32 {
-        self.bounds(grid).importance(p, n)
+        self.bounds(grid)
+            .importance_with_radius(p, n, |_, _| self.radius)
+    }
+
+    /// First light id of the right child's range, `first` being this
+    /// interior node's, at `index`.
+    fn right_first(&self, index: usize, first: usize) -> usize {
+        first + (self.link as usize - index) / 2
     }
 }
 
@@ -556,7 +592,7 @@ impl LightBvh {
         loop {
             let node = self.nodes.get(index)?;
             if node.is_leaf() {
-                return (pmf > 0.0).then_some((node.first as usize, pmf));
+                return (pmf > 0.0).then_some((node.link as usize, pmf));
             }
             let (p_left, p_right) = self.child_probabilities(index, p, n)?;
             if u < p_left {
@@ -582,7 +618,7 @@ impl LightBvh {
         if light >= self.len() || root.importance(&self.grid, p, n) == 0.0 {
             return 0.0;
         }
-        let mut index = 0;
+        let (mut index, mut first) = (0, 0);
         let mut pmf = 1.0;
         loop {
             let Some(node) = self.nodes.get(index) else {
@@ -594,13 +630,9 @@ impl LightBvh {
             let Some((p_left, p_right)) = self.child_probabilities(index, p, n) else {
                 return 0.0;
             };
-            let right = node.link as usize;
-            let in_right = self
-                .nodes
-                .get(right)
-                .is_some_and(|r| light >= r.first as usize);
-            let (probability, next) = if in_right {
-                (p_right, right)
+            let right_first = node.right_first(index, first);
+            let (probability, next) = if light >= right_first {
+                (p_right, node.link as usize)
             } else {
                 (p_left, index + 1)
             };
@@ -608,6 +640,9 @@ impl LightBvh {
                 return 0.0;
             }
             pmf *= probability;
+            if light >= right_first {
+                first = right_first;
+            }
             index = next;
         }
     }
@@ -1158,7 +1193,7 @@ impl<'a> Subtree<'a> {
             }
             let split = choose_split(tree.prims, centroids);
             let (root, left, right) = tree.split(split.mid);
-            let topology = Node::topology(right.base, left.first, false);
+            let topology = Node::topology(right.base, false);
             if left.prims.len() < PARALLEL_MIN {
                 pending.push((root, topology, left.build_serial(grid, split.left), true));
                 (tree, centroids) = (right, split.right);
@@ -1224,12 +1259,12 @@ impl<'a> Subtree<'a> {
         while let Some(task) = stack.pop() {
             let light = first + task.start as u32;
             if task.end - task.start == 1 {
-                nodes[task.node] = Node::topology(light, light, true);
+                nodes[task.node] = Node::topology(light, true);
                 continue;
             }
             let split = choose_split(&mut prims[task.start..task.end], task.centroids);
             let right = task.node + 2 * split.mid;
-            nodes[task.node] = Node::topology(base + right as u32, light, false);
+            nodes[task.node] = Node::topology(base + right as u32, false);
             stack.push(Task {
                 start: task.start + split.mid,
                 end: task.end,
@@ -1249,7 +1284,7 @@ impl<'a> Subtree<'a> {
         let mut done: Vec<LightBounds> = Vec::new();
         for node in nodes.iter_mut().rev() {
             let bounds = if node.is_leaf() {
-                prims[(node.first - first) as usize].bounds()
+                prims[(node.link - first) as usize].bounds()
             } else {
                 let n = done.len();
                 let bounds = done[n - 1].union(&done[n - 2]);
@@ -1880,13 +1915,13 @@ mod tests {
 
     /// Depth of the leaf of `light`, found by its id range.
     fn leaf_depth(bvh: &LightBvh, light: usize) -> usize {
-        let (mut index, mut depth) = (0, 0);
+        let (mut index, mut first, mut depth) = (0, 0, 0);
         while !bvh.nodes[index].is_leaf() {
-            let right = bvh.nodes[index].link as usize;
-            index = if light >= bvh.nodes[right].first as usize {
-                right
+            let right_first = bvh.nodes[index].right_first(index, first);
+            (index, first) = if light >= right_first {
+                (bvh.nodes[index].link as usize, right_first)
             } else {
-                index + 1
+                (index + 1, first)
             };
             depth += 1;
         }
