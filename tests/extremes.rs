@@ -532,6 +532,18 @@ fn pmf_sum_and_min_contributing(
     (sum, min)
 }
 
+/// For the power, bvh and oracle selectors at `ctx`: Σ pmf = 1 within 1e-9 (f64) and every
+/// light the oracle says contributes has pmf > 0.
+fn assert_power_bvh_oracle_pmfs(scene: &Scene, ctx: &ShadingContext) {
+    for kind in [SelectorKind::Power, SelectorKind::Bvh, SelectorKind::Oracle] {
+        let mut lights = Lights::from_scene(scene);
+        let selector = LightSelector::build(kind, &mut lights).unwrap();
+        let (sum, min) = pmf_sum_and_min_contributing(&selector, &lights, ctx);
+        assert!((sum - 1.0).abs() < 1e-9, "{kind:?}: Σ pmf = {sum}");
+        assert!(min > 0.0, "{kind:?}: a contributing light has pmf 0");
+    }
+}
+
 #[test]
 fn radiance_from_1e_minus_20_to_1e20_in_one_scene() {
     let radiances = [1e-20f32, 1e-10, 1.0, 1e10, 1e20];
@@ -547,13 +559,7 @@ fn radiance_from_1e_minus_20_to_1e20_in_one_scene() {
         p: Vec3::new(0.1, 0.0, 0.0),
         n: Vec3::Z,
     };
-    for kind in [SelectorKind::Power, SelectorKind::Bvh, SelectorKind::Oracle] {
-        let mut lights = Lights::from_scene(&scene);
-        let selector = LightSelector::build(kind, &mut lights).unwrap();
-        let (sum, min) = pmf_sum_and_min_contributing(&selector, &lights, &ctx);
-        assert!((sum - 1.0).abs() < 1e-9, "{kind:?}: Σ pmf = {sum}");
-        assert!(min > 0.0, "{kind:?}: a contributing light has pmf 0");
-    }
+    assert_power_bvh_oracle_pmfs(&scene, &ctx);
     let target = ctx.p;
     let expected = lambert_radiance(&scene, target, Vec3::Z);
     for selector in [
@@ -587,13 +593,7 @@ fn overflowing_powers_stay_finite_in_every_selector() {
         p: Vec3::new(0.1, 0.0, 0.0),
         n: Vec3::Z,
     };
-    for kind in [SelectorKind::Power, SelectorKind::Bvh, SelectorKind::Oracle] {
-        let mut lights = Lights::from_scene(&scene);
-        let selector = LightSelector::build(kind, &mut lights).unwrap();
-        let (sum, min) = pmf_sum_and_min_contributing(&selector, &lights, &ctx);
-        assert!((sum - 1.0).abs() < 1e-9, "{kind:?}: Σ pmf = {sum}");
-        assert!(min > 0.0, "{kind:?}: a contributing light has pmf 0");
-    }
+    assert_power_bvh_oracle_pmfs(&scene, &ctx);
 }
 
 #[test]
