@@ -171,8 +171,14 @@ pub fn run_bench(args: &BenchArgs) -> anyhow::Result<()> {
             .into());
         }
     }
-    let setup = SceneSetup::load(&o.scene, o.camera.as_ref(), o.width, o.height)?
-        .with_environment(o.environment()?);
+    let setup = SceneSetup::load_allowing(
+        &o.scene,
+        o.camera.as_ref(),
+        o.width,
+        o.height,
+        &o.allow_external_files,
+    )?
+    .with_environment(o.environment()?);
     check_resolution(setup.width, setup.height)?;
     let pool = o.thread_pool()?;
     let reference =

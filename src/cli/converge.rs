@@ -64,8 +64,14 @@ pub fn run_converge(args: &ConvergeArgs) -> anyhow::Result<bool> {
         clamp: o.clamp,
         tolerance: args.tolerance,
     };
-    let setup = SceneSetup::load(&o.scene, o.camera.as_ref(), o.width, o.height)?
-        .with_environment(o.environment()?);
+    let setup = SceneSetup::load_allowing(
+        &o.scene,
+        o.camera.as_ref(),
+        o.width,
+        o.height,
+        &o.allow_external_files,
+    )?
+    .with_environment(o.environment()?);
     check_resolution(setup.width, setup.height)?;
     let pool = o.thread_pool()?;
     let max_spp = distinct.last().copied().unwrap_or(1);

@@ -6,7 +6,7 @@ use clap::Args;
 
 use crate::lights::power_stats::PowerStats;
 use crate::lights::Lights;
-use crate::scene::{load_gltf, CameraChoice};
+use crate::scene::{load_gltf_allowing, CameraChoice};
 
 #[derive(Args, Debug)]
 pub struct InfoArgs {
@@ -15,10 +15,15 @@ pub struct InfoArgs {
     /// Camera node index (in scene order) or name.
     #[arg(long)]
     pub camera: Option<CameraChoice>,
+    /// Also read the scene's external files (buffers, images) from inside this folder
+    /// (repeatable).
+    #[arg(long, value_name = "DIR", value_parser = super::options::existing_folder)]
+    pub allow_external_files: Vec<PathBuf>,
 }
 
 pub fn run(args: &InfoArgs) -> anyhow::Result<()> {
-    let scene = load_gltf(&args.scene, &args.camera.clone().unwrap_or_default())?;
+    let camera = args.camera.clone().unwrap_or_default();
+    let scene = load_gltf_allowing(&args.scene, &camera, &args.allow_external_files)?;
     let lights = Lights::from_scene(&scene);
     let two_sided = lights.triangles().filter(|l| l.two_sided).count();
     let (lo, hi) = scene.bounds();

@@ -68,6 +68,10 @@ pub struct RenderOptionsArgs {
     /// Turn the environment map by this many degrees about +Y (counter-clockwise from above).
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, value_parser = finite, requires = "env")]
     pub env_rotate: f32,
+    /// Also read the scene's external files (buffers, images) from inside this folder; without
+    /// it only files inside the scene's own folder are read (repeatable).
+    #[arg(long, value_name = "DIR", value_parser = existing_folder)]
+    pub allow_external_files: Vec<PathBuf>,
 }
 
 /// The defaults of a command that renders one configuration.
@@ -176,5 +180,18 @@ fn positive_finite(s: &str) -> Result<f32, String> {
         Ok(x)
     } else {
         Err(format!("must be a positive finite number, got {s}"))
+    }
+}
+
+/// Parses an existing folder into its canonical path (clap value parser for
+/// `--allow-external-files`, whose paths are compared with canonical file paths).
+pub fn existing_folder(s: &str) -> Result<PathBuf, String> {
+    let path = std::path::Path::new(s)
+        .canonicalize()
+        .map_err(|e| format!("cannot resolve {s}: {e}"))?;
+    if path.is_dir() {
+        Ok(path)
+    } else {
+        Err(format!("{s} is not a folder"))
     }
 }

@@ -46,8 +46,14 @@ pub fn run(args: &ReferenceArgs) -> anyhow::Result<()> {
     }
     let estimator = o.estimator(&REFERENCE_DEFAULTS)?;
     let spp = o.single_spp(&REFERENCE_DEFAULTS)?;
-    let setup = SceneSetup::load(&o.scene, o.camera.as_ref(), o.width, o.height)?
-        .with_environment(o.environment()?);
+    let setup = SceneSetup::load_allowing(
+        &o.scene,
+        o.camera.as_ref(),
+        o.width,
+        o.height,
+        &o.allow_external_files,
+    )?
+    .with_environment(o.environment()?);
     check_resolution(setup.width, setup.height)?;
     let options = ReferenceOptions {
         width: setup.width,

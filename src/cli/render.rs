@@ -13,7 +13,7 @@ use crate::image::{write_atomically, write_exr, write_png_preview, RgbImage};
 use crate::integrator::{render, PreparedScene, RenderOptions, RenderStats, Strategy};
 use crate::measure::{camera_or_framing, EstimatorChoice};
 use crate::sampling::sampler::SamplerKind;
-use crate::scene::load_gltf;
+use crate::scene::load_gltf_allowing;
 use crate::select::SelectorKind;
 
 #[derive(Args, Debug, Clone)]
@@ -122,8 +122,12 @@ fn render_scene(
     let o = &args.options;
     let mut seconds = Timings::default();
     let t = Instant::now();
-    let scene = load_gltf(&o.scene, &o.camera.clone().unwrap_or_default())?
-        .with_environment(o.environment()?);
+    let scene = load_gltf_allowing(
+        &o.scene,
+        &o.camera.clone().unwrap_or_default(),
+        &o.allow_external_files,
+    )?
+    .with_environment(o.environment()?);
     seconds.load = t.elapsed().as_secs_f64();
 
     let camera = camera_or_framing(&scene, &o.scene);

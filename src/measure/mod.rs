@@ -20,7 +20,9 @@ use crate::image::RgbImage;
 use crate::integrator::Strategy;
 use crate::lights::EnvironmentMap;
 use crate::sampling::sampler::SamplerKind;
-use crate::scene::{load_gltf_bytes, read_scene_file, scene_folder, Camera, CameraChoice, Scene};
+use crate::scene::{
+    load_gltf_bytes_allowing, read_scene_file, scene_folder, Camera, CameraChoice, Scene,
+};
 use crate::select::SelectorKind;
 
 /// One estimator configuration: the selector, the strategy, K × N and the sample sequence.
@@ -57,10 +59,22 @@ impl SceneSetup {
         width: u32,
         height: Option<u32>,
     ) -> anyhow::Result<SceneSetup> {
+        Self::load_allowing(path, camera, width, height, &[])
+    }
+
+    /// [`SceneSetup::load`], also reading external files from the `allowed` folders (canonical
+    /// paths; `--allow-external-files`).
+    pub fn load_allowing(
+        path: &Path,
+        camera: Option<&CameraChoice>,
+        width: u32,
+        height: Option<u32>,
+        allowed: &[PathBuf],
+    ) -> anyhow::Result<SceneSetup> {
         // One read: the bytes the loader accepts are the bytes hashed.
         let bytes = read_scene_file(path)?;
         let choice = camera.cloned().unwrap_or_default();
-        let scene = load_gltf_bytes(&bytes, path, scene_folder(path), &choice)?;
+        let scene = load_gltf_bytes_allowing(&bytes, path, scene_folder(path), &choice, allowed)?;
         let cam = camera_or_framing(&scene, path);
         let (width, height) = cam.resolution(width, height);
         Ok(SceneSetup {

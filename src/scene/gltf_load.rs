@@ -19,11 +19,11 @@
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
-use base64::Engine;
 use glam::{Mat3, Mat4, Vec2, Vec3};
 use gltf::accessor::{DataType, Dimensions};
 use gltf::camera::Projection;
 
+use super::gltf_files::{read_uri, FileAccess};
 use super::texture_decode::decode_image;
 use super::{
     geometric_normal, Camera, LoadStats, Material, PunctualKind, PunctualLight, Scene, Texture,
@@ -75,10 +75,20 @@ const MAX_NODE_DEPTH: usize = 256;
 /// counts it declares, before any buffer is read.
 pub const MAX_TRIANGLES: u64 = 1 << 25;
 
-/// Loads the default scene of a glTF or GLB file.
+/// Loads the default scene of a glTF or GLB file, reading external files only from its folder.
 pub fn load_gltf(path: &Path, camera: &CameraChoice) -> Result<Scene, LoadError> {
+    load_gltf_allowing(path, camera, &[])
+}
+
+/// [`load_gltf`], also admitting external files inside the `allowed` folders (canonical paths;
+/// `--allow-external-files`).
+pub fn load_gltf_allowing(
+    path: &Path,
+    camera: &CameraChoice,
+    allowed: &[PathBuf],
+) -> Result<Scene, LoadError> {
     let bytes = read_scene_file(path)?;
-    load_gltf_bytes(&bytes, path, scene_folder(path), camera)
+    load_gltf_bytes_allowing(&bytes, path, scene_folder(path), camera, allowed)
 }
 
 /// The folder external buffer URIs of the scene file `path` resolve against.
@@ -123,14 +133,30 @@ pub fn read_scene_file(path: &Path) -> Result<Vec<u8>, LoadError> {
 }
 
 /// Loads the default scene of a glTF or GLB file already in memory. `path_for_messages` names
-/// the file in errors; external buffer URIs resolve relative to `base_dir`. Never panics: any
-/// input gives a scene or a [`LoadError`].
+/// the file in errors; external buffer URIs resolve relative to `base_dir` and must stay inside
+/// it (see [`super::gltf_files`]). Never panics: any input gives a scene or a [`LoadError`].
 pub fn load_gltf_bytes(
     bytes: &[u8],
     path_for_messages: &Path,
     base_dir: &Path,
     camera: &CameraChoice,
 ) -> Result<Scene, LoadError> {
+    load_gltf_bytes_allowing(bytes, path_for_messages, base_dir, camera, &[])
+}
+
+/// [`load_gltf_bytes`], also admitting external files inside the `allowed` folders (canonical
+/// paths).
+pub fn load_gltf_bytes_allowing(
+    bytes: &[u8],
+    path_for_messages: &Path,
+    base_dir: &Path,
+    camera: &CameraChoice,
+    allowed: &[PathBuf],
+) -> Result<Scene, LoadError> {
+    let files = FileAccess {
+        scene_folder: base_dir,
+        allowed,
+    };
     let path = path_for_messages;
     let format = |message: String| LoadError::Format {
         path: path.into(),
@@ -163,10 +189,10 @@ pub fn load_gltf_bytes(
             ),
         ));
     }
-    let buffers = load_buffers(&document, blob, base_dir).map_err(|(e, m)| invalid(e, m))?;
+    let buffers = load_buffers(&document, blob, files).map_err(|(e, m)| invalid(e, m))?;
     let mut loader = Loader {
         buffers: &buffers,
-        base_dir,
+        files,
         materials: Vec::new(),
         material_map: vec![None; document.materials().len() + 1],
         textures: Vec::new(),
@@ -376,7 +402,7 @@ fn quoted(name: Option<&str>) -> String {
 fn load_buffers(
     document: &gltf::Document,
     mut blob: Option<Vec<u8>>,
-    base_dir: &Path,
+    files: FileAccess,
 ) -> Result<Vec<Vec<u8>>, (String, String)> {
     let mut buffers = Vec::new();
     for buffer in document.buffers() {
@@ -389,7 +415,7 @@ fn load_buffers(
                 )
             })?,
             gltf::buffer::Source::Uri(uri) => {
-                read_uri(uri, Some(buffer.length()), base_dir).map_err(|m| (element.clone(), m))?
+                read_uri(uri, Some(buffer.length()), files).map_err(|m| (element.clone(), m))?
             }
         };
         if data.len() < buffer.length() {
@@ -407,82 +433,10 @@ fn load_buffers(
     Ok(buffers)
 }
 
-/// Image files (which declare no length) larger than this are refused before reading.
-const MAX_IMAGE_FILE_BYTES: u64 = 1 << 30;
-
-/// The bytes of a URI: a base64 data URI, or a regular file — for a buffer the first `length`
-/// bytes (its byteLength), refused before reading when the file is shorter; for an image (None)
-/// the whole file, refused before reading beyond MAX_IMAGE_FILE_BYTES.
-fn read_uri(uri: &str, length: Option<usize>, base_dir: &Path) -> Result<Vec<u8>, String> {
-    if let Some(rest) = uri.strip_prefix("data:") {
-        let (_, payload) = rest
-            .split_once(";base64,")
-            .ok_or_else(|| "data URI is not base64-encoded".to_string())?;
-        return base64::engine::general_purpose::STANDARD
-            .decode(payload)
-            .map_err(|e| format!("data URI is not valid base64: {e}"));
-    }
-    let file = base_dir.join(percent_decode(uri));
-    let cannot =
-        |e: &dyn std::fmt::Display| format!("cannot read '{uri}' ({}): {e}", file.display());
-    // Only regular files: a device such as /dev/zero or a FIFO would never end or never answer.
-    // Checked before opening: opening a FIFO for reading blocks until a writer appears.
-    let meta = std::fs::metadata(&file).map_err(|e| cannot(&e))?;
-    if !meta.is_file() {
-        return Err(cannot(&"not a regular file"));
-    }
-    let mut reader = std::fs::File::open(&file).map_err(|e| cannot(&e))?;
-    let Some(length) = length else {
-        if meta.len() > MAX_IMAGE_FILE_BYTES {
-            return Err(cannot(&format_args!(
-                "{} bytes, more than the {MAX_IMAGE_FILE_BYTES} an image may have",
-                meta.len()
-            )));
-        }
-        let mut bytes = Vec::new();
-        reader.read_to_end(&mut bytes).map_err(|e| cannot(&e))?;
-        return Ok(bytes);
-    };
-    if meta.len() < length as u64 {
-        return Err(format!(
-            "declares {length} bytes but '{uri}' ({}) has only {}",
-            file.display(),
-            meta.len()
-        ));
-    }
-    let mut bytes = Vec::new();
-    bytes.try_reserve_exact(length).map_err(|e| cannot(&e))?;
-    (&mut reader)
-        .take(length as u64)
-        .read_to_end(&mut bytes)
-        .map_err(|e| cannot(&e))?;
-    Ok(bytes)
-}
-
-/// Decodes %XX escapes in a relative URI (spaces are commonly written as %20).
-fn percent_decode(uri: &str) -> String {
-    let bytes = uri.as_bytes();
-    let mut out = Vec::with_capacity(bytes.len());
-    let mut i = 0;
-    while i < bytes.len() {
-        let hex = |b: u8| (b as char).to_digit(16);
-        if bytes[i] == b'%' && i + 2 < bytes.len() {
-            if let (Some(h), Some(l)) = (hex(bytes[i + 1]), hex(bytes[i + 2])) {
-                out.push((h * 16 + l) as u8);
-                i += 3;
-                continue;
-            }
-        }
-        out.push(bytes[i]);
-        i += 1;
-    }
-    String::from_utf8_lossy(&out).into_owned()
-}
-
 struct Loader<'a> {
     buffers: &'a [Vec<u8>],
-    /// External image files resolve relative to this directory.
-    base_dir: &'a Path,
+    /// Where external image files may be read.
+    files: FileAccess<'a>,
     materials: Vec<Material>,
     /// glTF material index (last slot: the default material) → index into `materials`.
     material_map: Vec<Option<u32>>,
@@ -568,7 +522,7 @@ impl Loader<'_> {
                     image_element = format!("{image_element} '{uri}'");
                 }
                 let bytes =
-                    read_uri(uri, None, self.base_dir).map_err(|m| (image_element.clone(), m))?;
+                    read_uri(uri, None, self.files).map_err(|m| (image_element.clone(), m))?;
                 std::borrow::Cow::Owned(bytes)
             }
         };
@@ -943,16 +897,4 @@ fn choose_camera(cameras: &[CameraNode], choice: &CameraChoice) -> Result<Option
     perspective(chosen)
         .map(Some)
         .ok_or_else(|| "the chosen camera is not a valid perspective camera".into())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn percent_escapes_are_decoded() {
-        assert_eq!(percent_decode("a%20b.bin"), "a b.bin");
-        assert_eq!(percent_decode("100%"), "100%");
-        assert_eq!(percent_decode("x%2"), "x%2");
-    }
 }

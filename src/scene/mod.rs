@@ -7,6 +7,7 @@
 mod camera;
 pub mod generate;
 pub mod generate_sky;
+mod gltf_files;
 mod gltf_load;
 pub mod gltf_write;
 pub mod texture;
@@ -14,8 +15,8 @@ pub mod texture_decode;
 
 pub use camera::Camera;
 pub use gltf_load::{
-    load_gltf, load_gltf_bytes, read_scene_file, scene_folder, CameraChoice, LoadError,
-    MAX_TRIANGLES,
+    load_gltf, load_gltf_allowing, load_gltf_bytes, load_gltf_bytes_allowing, read_scene_file,
+    scene_folder, CameraChoice, LoadError, MAX_TRIANGLES,
 };
 pub use texture::{Texture, Wrap};
 
