@@ -1,7 +1,9 @@
 //! A stable-Rust mutation fuzzer for the glTF/GLB loader: it must never panic, hang or make a
 //! huge allocation, whatever the bytes. Corpus: the shipped Cornell box, a small generated town
-//! (GLB), a JSON .gltf Cornell box, the same with KHR_lights_punctual lights, and a triangle
-//! with a sparse accessor. Mutations are deterministic from a PCG seed: byte flips
+//! (GLB), a JSON .gltf Cornell box, the same with KHR_lights_punctual lights, a triangle
+//! with a sparse accessor, the shipped textured and extremes scenes, and a textured quad with
+//! three cameras, samplers, KHR_texture_transform, material extensions, lights on camera nodes
+//! and hostile image URIs (`fuzz_inputs`). Mutations are deterministic from a PCG seed: byte flips
 //! and overwrites, interesting 32-bit words, truncation, chunk duplication and deletion, and
 //! JSON-aware edits (numbers replaced by huge/negative/non-finite literals, keys dropped or
 //! duplicated, componentType/type/count/byteOffset/byteLength and index references changed) —
@@ -25,6 +27,8 @@ use manylights::scene::{load_gltf_bytes, CameraChoice};
 use rand_core::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
 use serde_json::Value;
+
+mod fuzz_inputs;
 
 /// Any single allocation above this while loading a fuzzed input (all are < 1 MiB) is a bug:
 /// the loader trusted a count or length from the file. The allocator writes the input and aborts.
@@ -165,6 +169,7 @@ fn corpus() -> Vec<Vec<u8>> {
         sparse_triangle(),
         textured_glb,
         extremes_glb,
+        fuzz_inputs::textured_quad_with_cameras(),
     ]
 }
 
@@ -407,8 +412,14 @@ fn mutate_json_value(rng: &mut Pcg32, doc: &mut Value) -> bool {
         4 => match target {
             // Set a well-known key of an object to a plausible or hostile value.
             Value::Object(map) => {
-                let key = KEYS[below(rng, KEYS.len())];
+                let scene_keys = &fuzz_inputs::SCENE_KEYS;
+                let k = below(rng, KEYS.len() + scene_keys.len());
+                let key = KEYS
+                    .get(k)
+                    .copied()
+                    .unwrap_or_else(|| scene_keys[k - KEYS.len()]);
                 let value = match key {
+                    _ if k >= KEYS.len() => fuzz_inputs::scene_value(key, rng.next_u32()),
                     "componentType" => Value::from(COMPONENT_TYPES[below(rng, 8)]),
                     "type" => Value::from(TYPES[below(rng, TYPES.len())]),
                     "children" => Value::from(vec![random_small_number(rng)]),
@@ -662,6 +673,11 @@ fn fuzz(seed: u64, budget: impl Fn(u64, Duration) -> bool) -> Report {
     // The unmutated corpus must load.
     for (i, input) in corpus.iter().enumerate() {
         assert!(run_one(&format!("corpus{i}"), input, &mut report).is_none());
+        assert_eq!(
+            report.loaded,
+            i as u64 + 1,
+            "corpus input {i} does not load"
+        );
     }
     let mut iteration = 0u64;
     while budget(iteration, start.elapsed()) {
