@@ -4,7 +4,8 @@
 //! 2 bad command-line usage (from clap, or a [`UsageError`]); 3 an input that cannot be read or
 //! is invalid (a scene's [`crate::scene::LoadError`], an environment map's
 //! [`crate::lights::EnvironmentError`], or a [`BadInput`] image or reference);
-//! 4 a `converge` check failed.
+//! 4 a `converge` check failed; 130 a `reference` interrupted by SIGINT or SIGTERM (after
+//! writing its checkpoint).
 
 pub mod bench;
 pub mod converge;
@@ -22,6 +23,7 @@ pub const EXIT_FAILURE: i32 = 1;
 pub const EXIT_USAGE: i32 = 2;
 pub const EXIT_BAD_INPUT: i32 = 3;
 pub const EXIT_CHECK_FAILED: i32 = 4;
+pub const EXIT_INTERRUPTED: i32 = 130;
 
 #[derive(Parser, Debug)]
 #[command(
@@ -74,6 +76,8 @@ pub fn run(cli: Cli) -> i32 {
             eprintln!("error: {}", message(&e));
             if e.downcast_ref::<UsageError>().is_some() {
                 EXIT_USAGE
+            } else if e.downcast_ref::<reference::Interrupted>().is_some() {
+                EXIT_INTERRUPTED
             } else if e.downcast_ref::<crate::scene::LoadError>().is_some()
                 || e.downcast_ref::<crate::lights::EnvironmentError>()
                     .is_some()

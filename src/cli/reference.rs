@@ -1,19 +1,26 @@
-//! `manylights reference SCENE -o REF.exr [--spp N | --time SECONDS]`: a progressive high-spp
-//! reference with its variance layer and JSON sidecar.
+//! `manylights reference SCENE -o REF.exr [--spp N | --time SECONDS] [--resume]`: a
+//! progressive high-spp reference with its variance layer and JSON sidecar, checkpointed to
+//! `REF.exr.checkpoint` every `--checkpoint-every` seconds and when interrupted (SIGINT,
+//! SIGTERM), and resumed from it bit-identically with `--resume`.
 
 use std::path::{Path, PathBuf};
-use std::time::Duration;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
 
+use anyhow::Context;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 
 use super::options::{check_resolution, Defaults, RenderOptionsArgs};
 use super::output::check_output_path;
 use super::{BadInput, UsageError};
-use crate::measure::progressive::PassCount;
+use crate::measure::checkpoint::{checkpoint_path, differences, read_checkpoint, write_checkpoint};
+use crate::measure::progressive::{Budget, Flow, PassCount, Progressive};
 use crate::measure::reference::{
-    cache_path, cached_or_render, read_reference, render_reference, sidecar_path, write_reference,
-    Obtained, Reference, ReferenceOptions, DEFAULT_ESTIMATOR,
+    cache_path, cached_or_render, finish_reference, read_reference, render_reference_passes,
+    sidecar_path, write_reference, Obtained, Reference, ReferenceOptions, DEFAULT_ESTIMATOR,
+    PASS_SPP,
 };
 use crate::measure::SceneSetup;
 
@@ -33,6 +40,41 @@ pub struct ReferenceArgs {
     /// Render passes until this many seconds have elapsed, instead of a fixed --spp.
     #[arg(long, conflicts_with = "spp", value_parser = positive_seconds)]
     pub time: Option<f64>,
+    /// Continue the interrupted run whose checkpoint is FILE.checkpoint (same scene and
+    /// options); the result is bit-identical to an uninterrupted run.
+    #[arg(long)]
+    pub resume: bool,
+    /// Write the checkpoint FILE.checkpoint after the first pass that ends this many seconds
+    /// after the last one (0: after every pass); always when interrupted.
+    #[arg(long, default_value_t = 60.0, value_parser = non_negative_seconds)]
+    pub checkpoint_every: f64,
+}
+
+/// A reference interrupted by a signal after its checkpoint was written (exit code 130).
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct Interrupted(pub String);
+
+/// Signals that stop a reference: SIGINT and SIGTERM.
+const STOP_SIGNALS: [(i32, &str); 2] = [
+    (signal_hook::consts::SIGINT, "SIGINT"),
+    (signal_hook::consts::SIGTERM, "SIGTERM"),
+];
+
+/// Records SIGINT and SIGTERM in a flag (and which one came in `which`) instead of dying, so
+/// that the pass loop can checkpoint and stop; a second signal while the flag is set exits at
+/// once (status 128 + signal), the last checkpoint staying intact.
+fn catch_stop_signals() -> anyhow::Result<(Arc<AtomicBool>, Arc<AtomicUsize>)> {
+    use signal_hook::flag;
+    let stop = Arc::new(AtomicBool::new(false));
+    let which = Arc::new(AtomicUsize::new(0));
+    for (signal, _) in STOP_SIGNALS {
+        // Registered first, so it sees the flag as the previous signal left it.
+        flag::register_conditional_shutdown(signal, 128 + signal, Arc::clone(&stop))?;
+        flag::register_usize(signal, Arc::clone(&which), signal as usize)?;
+        flag::register(signal, Arc::clone(&stop))?;
+    }
+    Ok((stop, which))
 }
 
 pub fn run(args: &ReferenceArgs) -> anyhow::Result<()> {
@@ -64,15 +106,72 @@ pub fn run(args: &ReferenceArgs) -> anyhow::Result<()> {
         spp: args.time.is_none().then_some(spp),
         time: args.time,
     };
+    let checkpoint = checkpoint_path(&args.output);
+    check_output_path(&checkpoint, "checkpoint")?;
+    let from = if args.resume {
+        Some(resume_state(&checkpoint, &setup, &options)?)
+    } else {
+        if checkpoint.exists() {
+            return Err(UsageError(format!(
+                "{} exists from an interrupted run: add --resume to continue it, or delete it \
+                 to start over",
+                checkpoint.display()
+            ))
+            .into());
+        }
+        None
+    };
+    let (stop, which) = catch_stop_signals()?;
     let pool = o.thread_pool()?;
     let bar = progress_bar(&options);
-    let reference = pool.install(|| {
-        render_reference(&setup, &options, &args.output, |count, seconds| {
-            update(&bar, &options, count, seconds)
+    let every = Duration::from_secs_f64(args.checkpoint_every);
+    let mut last_checkpoint = Instant::now();
+    let mut checkpoint_error = None;
+    let p = pool.install(|| {
+        render_reference_passes(&setup, &options, from, |p| {
+            update(&bar, &options, p.count, p.seconds);
+            let stopping = stop.load(Ordering::SeqCst);
+            if (stopping || last_checkpoint.elapsed() >= every) && !budget_spent(&options, p) {
+                if let Err(e) = write_checkpoint(&checkpoint, &setup, &options, PASS_SPP, p) {
+                    checkpoint_error = Some(e);
+                    return Flow::Stop;
+                }
+                last_checkpoint = Instant::now();
+            }
+            if stopping {
+                Flow::Stop
+            } else {
+                Flow::Continue
+            }
         })
     });
     bar.finish_and_clear();
+    if let Some(e) = checkpoint_error {
+        return Err(e);
+    }
+    if !budget_spent(&options, &p) {
+        let signal = which.load(Ordering::SeqCst) as i32;
+        let name = STOP_SIGNALS
+            .iter()
+            .find(|(s, _)| *s == signal)
+            .map_or("a signal", |(_, n)| n);
+        return Err(Interrupted(format!(
+            "interrupted by {name} after pass {} ({} spp, {:.1} s); checkpoint written to {}; \
+             resume with: {}",
+            p.count.passes,
+            p.count.spp,
+            p.seconds,
+            checkpoint.display(),
+            resume_command()
+        ))
+        .into());
+    }
+    let reference = finish_reference(&setup, &options, &args.output, &p);
     write_reference(&reference)?;
+    if checkpoint.exists() {
+        std::fs::remove_file(&checkpoint)
+            .with_context(|| format!("cannot remove {}", checkpoint.display()))?;
+    }
     let meta = reference
         .meta
         .as_ref()
@@ -139,6 +238,68 @@ pub fn update(bar: &ProgressBar, options: &ReferenceOptions, count: PassCount, s
     match options.time {
         Some(_) => bar.set_position((seconds * 1000.0) as u64),
         None => bar.set_position(count.spp as u64),
+    }
+}
+
+/// The state saved in `checkpoint`, when it was made for this scene and these options.
+fn resume_state(
+    checkpoint: &Path,
+    setup: &SceneSetup,
+    options: &ReferenceOptions,
+) -> anyhow::Result<Progressive> {
+    let (header, state) = read_checkpoint(checkpoint).map_err(BadInput::from_error)?;
+    let differ = differences(&header, setup, options, PASS_SPP);
+    if !differ.is_empty() {
+        return Err(BadInput(format!(
+            "checkpoint {} belongs to another run; it differs in {}",
+            checkpoint.display(),
+            differ.join("; ")
+        ))
+        .into());
+    }
+    eprintln!(
+        "resuming {} after pass {} ({} spp, {:.1} s)",
+        checkpoint.display(),
+        header.passes,
+        header.spp,
+        header.seconds
+    );
+    Ok(state)
+}
+
+/// Whether the passes `p` finished the reference's budget.
+fn budget_spent(options: &ReferenceOptions, p: &Progressive) -> bool {
+    match options.budget() {
+        Budget::Spp(total) => p.count.spp >= total,
+        Budget::Seconds(t) => p.seconds >= t,
+    }
+}
+
+/// This process's command line with `--resume` (once), quoted for a POSIX shell where needed.
+fn resume_command() -> String {
+    let mut args: Vec<String> = std::env::args().collect();
+    if !args.iter().any(|a| a == "--resume") {
+        args.push("--resume".into());
+    }
+    let quote = |a: &String| {
+        let plain = a
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || "-_./=,:+@%".contains(c));
+        if plain && !a.is_empty() {
+            a.clone()
+        } else {
+            format!("'{}'", a.replace('\'', "'\\''"))
+        }
+    };
+    args.iter().map(quote).collect::<Vec<_>>().join(" ")
+}
+
+fn non_negative_seconds(s: &str) -> Result<f64, String> {
+    let x: f64 = s.parse().map_err(|e| format!("{e}"))?;
+    if x.is_finite() && x >= 0.0 {
+        Ok(x)
+    } else {
+        Err(format!("must be a non-negative number of seconds, got {s}"))
     }
 }
 

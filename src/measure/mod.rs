@@ -2,6 +2,7 @@
 //! to a budget, benchmark grids, convergence checks, and their reports and plots.
 
 pub mod bench;
+pub mod checkpoint;
 pub mod converge;
 pub mod fit;
 pub mod metrics;

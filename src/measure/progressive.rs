@@ -1,6 +1,8 @@
 //! Progressive rendering: passes that continue each pixel's sample sequence, merged into one
-//! film (Chan's parallel merge), until a sample count or a time budget is spent. The pass loop
-//! takes its clock as a closure so tests can drive it with a fake one.
+//! film (Chan's parallel merge), until a sample count or a time budget is spent. A run can stop
+//! after any pass and be resumed from the merged state it reached (references checkpoint it),
+//! giving the same bits as a run never stopped. The pass loop takes its clock as a closure so
+//! tests can drive it with a fake one.
 
 use std::time::Instant;
 
@@ -30,11 +32,34 @@ pub struct PassCount {
 pub fn run_passes(
     budget: Budget,
     pass_spp: u32,
-    mut elapsed: impl FnMut() -> f64,
+    elapsed: impl FnMut() -> f64,
     mut pass: impl FnMut(u32, u32),
 ) -> PassCount {
+    let start = PassCount { passes: 0, spp: 0 };
+    continue_passes(budget, pass_spp, start, elapsed, |i, spp| {
+        pass(i, spp);
+        Flow::Continue
+    })
+}
+
+/// Whether to render another pass.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Flow {
+    Continue,
+    Stop,
+}
+
+/// [`run_passes`] continued from `done` (passes already rendered, e.g. by an interrupted run),
+/// stopping early when `pass` returns [`Flow::Stop`]. Pass sizes do not depend on where a run
+/// was interrupted: pass i always covers samples [i·pass_spp, (i+1)·pass_spp) of the budget.
+pub fn continue_passes(
+    budget: Budget,
+    pass_spp: u32,
+    mut done: PassCount,
+    mut elapsed: impl FnMut() -> f64,
+    mut pass: impl FnMut(u32, u32) -> Flow,
+) -> PassCount {
     let pass_spp = pass_spp.max(1);
-    let mut done = PassCount { passes: 0, spp: 0 };
     loop {
         let spp = match budget {
             Budget::Spp(total) if done.spp >= total => break,
@@ -42,9 +67,12 @@ pub fn run_passes(
             Budget::Seconds(s) if done.passes > 0 && elapsed() >= s => break,
             Budget::Seconds(_) => pass_spp,
         };
-        pass(done.passes, spp);
+        let flow = pass(done.passes, spp);
         done.passes += 1;
         done.spp += spp;
+        if flow == Flow::Stop {
+            break;
+        }
     }
     done
 }
@@ -71,39 +99,66 @@ pub fn render_progressive(
     pass_spp: u32,
     mut on_pass: impl FnMut(PassCount, f64),
 ) -> Progressive {
+    resume_progressive(estimator, camera, opts, budget, pass_spp, None, |p| {
+        on_pass(p.count, p.seconds);
+        Flow::Continue
+    })
+}
+
+/// [`render_progressive`] continued from `from` (the state an interrupted run saved after a
+/// pass, or None to start afresh), calling `after_pass` with the merged state after every pass
+/// and stopping early when it returns [`Flow::Stop`]. The passes continue each pixel's sample
+/// sequence and are merged in the same order, so a run resumed from the state after pass i is
+/// bit-identical to one never interrupted. Seconds add up over the runs (a time budget counts
+/// them all).
+pub fn resume_progressive(
+    estimator: &Estimator,
+    camera: &Camera,
+    opts: &RenderOptions,
+    budget: Budget,
+    pass_spp: u32,
+    from: Option<Progressive>,
+    mut after_pass: impl FnMut(&Progressive) -> Flow,
+) -> Progressive {
     let start = Instant::now();
-    let mut merged: Option<(Film, RenderStats)> = None;
-    let mut so_far = PassCount { passes: 0, spp: 0 };
-    let count = run_passes(
+    let before = from.as_ref().map_or(0.0, |p| p.seconds);
+    let done = from
+        .as_ref()
+        .map_or(PassCount { passes: 0, spp: 0 }, |p| p.count);
+    let mut state = from;
+    continue_passes(
         budget,
         pass_spp,
-        || start.elapsed().as_secs_f64(),
+        done,
+        || before + start.elapsed().as_secs_f64(),
         |_, spp| {
+            let so_far = state.as_ref().map_or(0, |p| p.count.spp);
             let pass_opts = RenderOptions {
                 spp,
-                first_sample: opts.first_sample + so_far.spp as u64,
+                first_sample: opts.first_sample + so_far as u64,
                 ..*opts
             };
             let (film, stats) = render(estimator, camera, &pass_opts);
-            match &mut merged {
-                None => merged = Some((film, stats)),
-                Some((m, s)) => {
-                    m.merge(&film);
-                    s.add(&stats);
+            let p = match &mut state {
+                None => state.insert(Progressive {
+                    film,
+                    stats,
+                    count: PassCount { passes: 0, spp: 0 },
+                    seconds: 0.0,
+                }),
+                Some(p) => {
+                    p.film.merge(&film);
+                    p.stats.add(&stats);
+                    p
                 }
-            }
-            so_far.passes += 1;
-            so_far.spp += spp;
-            on_pass(so_far, start.elapsed().as_secs_f64());
+            };
+            p.count.passes += 1;
+            p.count.spp += spp;
+            p.seconds = before + start.elapsed().as_secs_f64();
+            after_pass(p)
         },
     );
-    let (film, stats) = merged.expect("run_passes runs at least one pass");
-    Progressive {
-        film,
-        stats,
-        count,
-        seconds: start.elapsed().as_secs_f64(),
-    }
+    state.expect("a fresh run renders at least one pass")
 }
 
 #[cfg(test)]
@@ -151,5 +206,24 @@ mod tests {
         let c = run_passes(Budget::Spp(37), 16, || 0.0, |i, spp| sizes.push((i, spp)));
         assert_eq!(sizes, vec![(0, 16), (1, 16), (2, 5)]);
         assert_eq!((c.passes, c.spp), (3, 37));
+    }
+
+    #[test]
+    fn stopped_and_continued_passes_are_the_passes_of_one_run() {
+        let mut sizes = Vec::new();
+        let stop_after_second = |i: u32| if i == 1 { Flow::Stop } else { Flow::Continue };
+        let mut record = |i, spp| {
+            sizes.push((i, spp));
+            stop_after_second(i)
+        };
+        let start = PassCount { passes: 0, spp: 0 };
+        let c = continue_passes(Budget::Spp(37), 16, start, || 0.0, &mut record);
+        assert_eq!((c.passes, c.spp), (2, 32));
+        let c = continue_passes(Budget::Spp(37), 16, c, || 0.0, &mut record);
+        assert_eq!((c.passes, c.spp), (3, 37));
+        assert_eq!(sizes, vec![(0, 16), (1, 16), (2, 5)]);
+        // Continued after the budget is spent: no pass.
+        let c = continue_passes(Budget::Spp(37), 16, c, || 0.0, &mut record);
+        assert_eq!((c.passes, c.spp, sizes.len()), (3, 37, 3));
     }
 }

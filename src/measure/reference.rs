@@ -11,7 +11,7 @@ use anyhow::Context;
 use serde::{Deserialize, Serialize};
 
 use super::metrics::REL_MSE_EPSILON;
-use super::progressive::{render_progressive, Budget, PassCount};
+use super::progressive::{resume_progressive, Budget, Flow, PassCount, Progressive};
 use super::{fnv1a64, mean_image, EstimatorChoice, SceneSetup};
 use crate::image::{check_samples, read_exr_rgb, write_atomically, write_exr, RgbImage};
 use crate::integrator::{PreparedScene, RenderOptions, Strategy};
@@ -117,8 +117,24 @@ pub fn render_reference(
     setup: &SceneSetup,
     options: &ReferenceOptions,
     path: &Path,
-    on_pass: impl FnMut(PassCount, f64),
+    mut on_pass: impl FnMut(PassCount, f64),
 ) -> Reference {
+    let p = render_reference_passes(setup, options, None, |p| {
+        on_pass(p.count, p.seconds);
+        Flow::Continue
+    });
+    finish_reference(setup, options, path, &p)
+}
+
+/// The passes of a reference of `setup`, continued from `from` (a checkpoint's state, or None),
+/// with `after_pass` seeing the merged state after each pass (progress, checkpoints) and
+/// stopping the run early by returning [`Flow::Stop`].
+pub fn render_reference_passes(
+    setup: &SceneSetup,
+    options: &ReferenceOptions,
+    from: Option<Progressive>,
+    after_pass: impl FnMut(&Progressive) -> Flow,
+) -> Progressive {
     let e = options.estimator;
     let prepared = PreparedScene::new(setup.scene.clone(), e.selector);
     let estimator = prepared.estimator(e.strategy, e.k, e.n);
@@ -131,14 +147,24 @@ pub fn render_reference(
         first_sample: 0,
         clamp: None,
     };
-    let p = render_progressive(
+    resume_progressive(
         &estimator,
         &setup.camera,
         &opts,
         options.budget(),
         PASS_SPP,
-        on_pass,
-    );
+        from,
+        after_pass,
+    )
+}
+
+/// The reference (mean, variance of the mean, sidecar) of the finished passes `p`.
+pub fn finish_reference(
+    setup: &SceneSetup,
+    options: &ReferenceOptions,
+    path: &Path,
+    p: &Progressive,
+) -> Reference {
     let mean = mean_image(&p.film);
     let variance = RgbImage {
         width: mean.width,
