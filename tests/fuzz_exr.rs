@@ -240,14 +240,15 @@ fn fuzz(tag: &str, seed: u64, budget: impl Fn(u64, Duration) -> bool) -> Report 
         let mutated = mutate(&mut rng, input);
         std::fs::write(&path, &mutated).unwrap();
         if let Err(message) = read_both(&path, &mut report) {
-            if !report.panics.contains_key(&message) {
+            if let std::collections::btree_map::Entry::Vacant(slot) = report.panics.entry(message) {
                 let keep = path.with_file_name(format!("fuzz-exr-panic-{seed}-{iteration}.exr"));
                 std::fs::write(&keep, &mutated).unwrap();
                 eprintln!(
-                    "FUZZ PANIC seed {seed} iteration {iteration}: {message} ({})",
+                    "FUZZ PANIC seed {seed} iteration {iteration}: {} ({})",
+                    slot.key(),
                     keep.display()
                 );
-                report.panics.insert(message, iteration);
+                slot.insert(iteration);
             }
         }
         iteration += 1;

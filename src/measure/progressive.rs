@@ -210,20 +210,23 @@ mod tests {
 
     #[test]
     fn stopped_and_continued_passes_are_the_passes_of_one_run() {
-        let mut sizes = Vec::new();
-        let stop_after_second = |i: u32| if i == 1 { Flow::Stop } else { Flow::Continue };
-        let mut record = |i, spp| {
-            sizes.push((i, spp));
-            stop_after_second(i)
+        let sizes = std::cell::RefCell::new(Vec::new());
+        let record = |i, spp| {
+            sizes.borrow_mut().push((i, spp));
+            if i == 1 {
+                Flow::Stop
+            } else {
+                Flow::Continue
+            }
         };
         let start = PassCount { passes: 0, spp: 0 };
-        let c = continue_passes(Budget::Spp(37), 16, start, || 0.0, &mut record);
+        let c = continue_passes(Budget::Spp(37), 16, start, || 0.0, record);
         assert_eq!((c.passes, c.spp), (2, 32));
-        let c = continue_passes(Budget::Spp(37), 16, c, || 0.0, &mut record);
+        let c = continue_passes(Budget::Spp(37), 16, c, || 0.0, record);
         assert_eq!((c.passes, c.spp), (3, 37));
-        assert_eq!(sizes, vec![(0, 16), (1, 16), (2, 5)]);
+        assert_eq!(*sizes.borrow(), vec![(0, 16), (1, 16), (2, 5)]);
         // Continued after the budget is spent: no pass.
-        let c = continue_passes(Budget::Spp(37), 16, c, || 0.0, &mut record);
-        assert_eq!((c.passes, c.spp, sizes.len()), (3, 37, 3));
+        let c = continue_passes(Budget::Spp(37), 16, c, || 0.0, record);
+        assert_eq!((c.passes, c.spp, sizes.borrow().len()), (3, 37, 3));
     }
 }

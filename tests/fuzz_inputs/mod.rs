@@ -168,6 +168,17 @@ pub fn scene_value(key: &str, pick: u32) -> Value {
             json!(-0.0),
         ][pick % 4]
             .clone(),
-        _ => json!([0.0, -1.0, 1e-30, 1e30, 3.1416, 1.5708, -0.0][pick % 7]),
+        _ => {
+            let edges = [
+                0.0,
+                -1.0,
+                1e-30,
+                1e30,
+                std::f64::consts::PI,
+                std::f64::consts::FRAC_PI_2 + 1e-6,
+                -0.0,
+            ];
+            json!(edges[pick % 7])
+        }
     }
 }
