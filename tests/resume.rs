@@ -315,3 +315,51 @@ fn checkpoints_of_other_runs_and_damaged_ones_are_refused() {
     let o = manylights(&reference_args(&scene, &out, &["--resume"]));
     assert!(o.status.success(), "{}", stderr(&o));
 }
+
+#[test]
+fn every_mutated_checkpoint_is_refused_without_panic() {
+    let setup = SceneSetup::load(&cornell(), None, 6, None).unwrap();
+    let options = ReferenceOptions {
+        width: setup.width,
+        height: setup.height,
+        camera: None,
+        estimator: DEFAULT_ESTIMATOR,
+        seed: 1,
+        spp: Some(3 * PASS_SPP),
+        time: None,
+    };
+    let part = render_reference_passes(&setup, &options, None, |_| Flow::Stop);
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("r.exr.checkpoint");
+    write_checkpoint(&path, &setup, &options, PASS_SPP, &part).unwrap();
+    let saved = fs::read(&path).unwrap();
+    // Every single-bit flip (1 in 13 positions, all 8 bits), every 11th truncation, and huge or
+    // zero header lengths: each an error, never a panic or a wrong state.
+    let mut mutants: Vec<Vec<u8>> = Vec::new();
+    for at in (0..saved.len()).step_by(13) {
+        for bit in 0..8 {
+            let mut m = saved.clone();
+            m[at] ^= 1 << bit;
+            mutants.push(m);
+        }
+    }
+    mutants.extend((0..saved.len()).step_by(11).map(|n| saved[..n].to_vec()));
+    for length in [0u64, 1, u32::MAX as u64, u64::MAX, saved.len() as u64] {
+        let mut m = saved.clone();
+        m[8..16].copy_from_slice(&length.to_le_bytes());
+        mutants.push(m);
+    }
+    for m in &mutants {
+        fs::write(&path, m).unwrap();
+        let result = std::panic::catch_unwind(|| read_checkpoint(&path));
+        let Ok(result) = result else {
+            panic!("read_checkpoint panicked on a mutant of {} bytes", m.len())
+        };
+        let Err(e) = result else {
+            panic!("a damaged checkpoint of {} bytes was accepted", m.len())
+        };
+        assert!(format!("{e:#}").contains(&s(&path)), "{e:#}");
+    }
+    fs::write(&path, &saved).unwrap();
+    assert!(read_checkpoint(&path).is_ok());
+}
