@@ -4,7 +4,7 @@
 use std::path::Path;
 
 use base64::Engine;
-use manylights::scene::{load_gltf_bytes, CameraChoice, LoadError};
+use manylights::scene::{load_gltf_bytes, load_gltf_bytes_allowing, CameraChoice, LoadError};
 use serde_json::{json, Value};
 
 /// One triangle: three f32 VEC3 positions (36 bytes) in buffer 0, view 0, accessor 0.
@@ -222,16 +222,25 @@ fn punctual_light_references_are_checked() {
     assert_eq!(scene.triangles.len(), 1);
 }
 
-/// A buffer URI naming a device (or a directory) must not be read: /dev/zero never ends.
+/// A buffer URI naming a device (or a directory) must not be read: /dev/zero never ends. The
+/// path policy refuses /dev/zero as an absolute path; with /dev admitted it is still refused.
 #[test]
 fn buffer_uri_that_is_not_a_regular_file_is_an_error() {
-    for uri in ["/dev/zero", "."] {
+    let dev = [std::path::PathBuf::from("/dev").canonicalize().unwrap()];
+    for (uri, allowed) in [("/dev/zero", &dev[..]), (".", &[][..])] {
         let mut doc = triangle();
         doc["buffers"][0]["uri"] = json!(uri);
         let start = std::time::Instant::now();
-        assert_error(load_json(&doc), "not a regular file");
+        let bytes = serde_json::to_vec(&doc).unwrap();
+        let path = Path::new("regression.gltf");
+        let choice = &CameraChoice::First;
+        let loaded = load_gltf_bytes_allowing(&bytes, path, Path::new("."), choice, allowed);
+        assert_error(loaded, "not a regular file");
         assert!(start.elapsed().as_secs() < 5);
     }
+    let mut doc = triangle();
+    doc["buffers"][0]["uri"] = json!("/dev/zero");
+    assert_error(load_json(&doc), "'/dev/zero' is an absolute path");
 }
 
 /// The triangle with an emissive material whose texture reads image 0, described by `image`.
