@@ -268,6 +268,51 @@ fn fuzz(tag: &str, seed: u64, budget: impl Fn(u64, Duration) -> bool) -> Report 
     report
 }
 
+/// Inputs the long run found, each refused now with an error naming the file (and the test fails
+/// by aborting if a reader allocates from their headers again).
+#[test]
+fn found_inputs_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("found.exr");
+    // Seed 16002, within its first second: 65,537 one-line chunks declared in 376 bytes; the exr crate
+    // asked for 120 GB for its chunk offsets.
+    let found: [(&[u8], &str); 1] = [(
+        include_bytes!("fuzz_inputs/chunks-65537-in-376-bytes.exr"),
+        "declare 65537 chunks, more than its 376 bytes hold",
+    )];
+    for (bytes, says) in found {
+        std::fs::write(&path, bytes).unwrap();
+        FUZZING.store(true, Ordering::SeqCst);
+        let reference = read_exr_rgb(&path)
+            .map(|_| ())
+            .map_err(|e| format!("{e:#}"));
+        let env = EnvironmentMap::load(&path, 1.0, 0.0)
+            .map(|_| ())
+            .map_err(|e| e.to_string());
+        FUZZING.store(false, Ordering::SeqCst);
+        for result in [reference, env] {
+            let e = result.expect_err("refused");
+            assert!(
+                e.contains(&path.display().to_string()) && e.contains(says),
+                "{e}"
+            );
+        }
+    }
+    // The same defect made on purpose: a valid 4×2 file whose data window claims 2^20 rows.
+    write_exr(&path, &noisy(4, 2, 1), None).unwrap();
+    let mut bytes = std::fs::read(&path).unwrap();
+    let at = find(&bytes, b"dataWindow\0box2i\0").unwrap() + 17 + 4 + 12;
+    bytes[at..at + 4].copy_from_slice(&(1u32 << 20).to_le_bytes());
+    std::fs::write(&path, &bytes).unwrap();
+    FUZZING.store(true, Ordering::SeqCst);
+    let e = read_exr_rgb(&path)
+        .map(|_| ())
+        .map_err(|e| format!("{e:#}"));
+    FUZZING.store(false, Ordering::SeqCst);
+    let e = e.expect_err("refused");
+    assert!(e.contains("chunks, more than its"), "{e}");
+}
+
 #[test]
 fn fuzz_exr_briefly() {
     let report = fuzz("brief", 1, |i, _| i < 1_000);

@@ -87,11 +87,54 @@ pub fn write_exr(path: &Path, mean: &RgbImage, variance: Option<&RgbImage>) -> a
     })
 }
 
+/// Decoded samples may exceed the file's size at most this many times (deflate's limit is about
+/// 1032:1, RLE's 64:1) — or [`MIN_DECODED_LIMIT`], whichever is larger.
+const MAX_EXPANSION: u64 = 4096;
+/// Decoded bytes any file may declare, however small.
+const MIN_DECODED_LIMIT: u64 = 64 << 20;
+
+/// Refuses, from the headers alone and before anything is allocated from them, a file whose
+/// headers declare more than it can hold: more chunks than its size has room for offsets
+/// (8 bytes each), or more decoded sample bytes than [`MAX_EXPANSION`] × its size (a 376-byte
+/// file declaring a 120 GB image was found by `tests/fuzz_exr.rs`).
+fn check_declared_size(path: &Path) -> anyhow::Result<()> {
+    let size = std::fs::metadata(path)
+        .with_context(|| format!("cannot read {}", path.display()))?
+        .len();
+    let Ok(meta) = exr::meta::MetaData::read_from_file(path, false) else {
+        return Ok(()); // the full read reports what is wrong
+    };
+    let (mut chunks, mut decoded) = (0u64, 0u64);
+    for h in &meta.headers {
+        let pixels = (h.layer_size.0 as u64).saturating_mul(h.layer_size.1 as u64);
+        let sample_bytes: u64 = (h.channels.list.iter())
+            .map(|c| c.sample_type.bytes_per_sample() as u64)
+            .sum();
+        decoded = decoded.saturating_add(pixels.saturating_mul(sample_bytes));
+        chunks = chunks.saturating_add(h.chunk_count as u64);
+    }
+    ensure!(
+        chunks.saturating_mul(8) <= size,
+        "{}: not a valid OpenEXR file, truncated or corrupt (its headers declare {chunks} \
+         chunks, more than its {size} bytes hold)",
+        path.display()
+    );
+    let limit = size.saturating_mul(MAX_EXPANSION).max(MIN_DECODED_LIMIT);
+    ensure!(
+        decoded <= limit,
+        "{}: not a valid OpenEXR file, truncated or corrupt (its headers declare {decoded} \
+         bytes of samples, more than {MAX_EXPANSION} times its {size} bytes)",
+        path.display()
+    );
+    Ok(())
+}
+
 /// Reads the first layer of an OpenEXR file: the `R`, `G`, `B` channels as the
 /// mean and, if all three are present, `variance.R`, `variance.G`,
 /// `variance.B` as the variance. Samples stored as f16 or u32 are converted to
 /// f32. Fails, naming the file, if it is not OpenEXR or lacks R, G or B.
 pub fn read_exr_rgb(path: &Path) -> anyhow::Result<(RgbImage, Option<RgbImage>)> {
+    check_declared_size(path)?;
     let image = read()
         .no_deep_data()
         .largest_resolution_level()
