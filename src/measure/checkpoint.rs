@@ -11,7 +11,8 @@
 //!
 //! File layout (little-endian): the 8-byte magic `MLCKPT01`; the header's length (u64) and the
 //! header as JSON; width × height pixel records of 7 × 8 bytes (count u64, mean 3 × f64,
-//! M2 3 × f64), row-major; and a 64-bit FNV-1a of everything before it. The file is written
+//! M2 3 × f64), row-major; and a 64-bit FNV-1a of everything before it (the same hash as
+//! [`super::fnv1a64`]). The file is written
 //! atomically (temporary file, fsync, rename), so a kill while writing leaves the previous
 //! checkpoint intact; a damaged or foreign file is refused by its magic, sizes or checksum.
 
@@ -22,7 +23,6 @@ use anyhow::{bail, ensure, Context};
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
-use super::fnv1a64;
 use super::progressive::{PassCount, Progressive};
 use super::reference::ReferenceOptions;
 use super::SceneSetup;
@@ -83,18 +83,38 @@ pub fn write_checkpoint(
         fireflies: p.stats.fireflies,
     };
     let json = serde_json::to_vec(&header)?;
-    let mut bytes = Vec::with_capacity(16 + json.len() + p.film.pixels.len() * 56 + 8);
-    bytes.extend_from_slice(MAGIC);
-    bytes.extend((json.len() as u64).to_le_bytes());
-    bytes.extend(&json);
-    for px in &p.film.pixels {
-        bytes.extend(px.count.to_le_bytes());
-        for v in px.mean.to_array().into_iter().chain(px.m2.to_array()) {
-            bytes.extend(v.to_bits().to_le_bytes());
+    write_atomically(path, |w| {
+        // Streamed (a 4K film is half a gigabyte), hashed as it goes.
+        let mut hash = FNV_OFFSET;
+        let mut put = |bytes: &[u8]| -> std::io::Result<()> {
+            hash = fnv_update(hash, bytes);
+            w.write_all(bytes)
+        };
+        put(MAGIC)?;
+        put(&(json.len() as u64).to_le_bytes())?;
+        put(&json)?;
+        for px in &p.film.pixels {
+            let mut record = [0u8; PIXEL_BYTES as usize];
+            record[..8].copy_from_slice(&px.count.to_le_bytes());
+            let values = px.mean.to_array().into_iter().chain(px.m2.to_array());
+            for (slot, v) in record[8..].chunks_exact_mut(8).zip(values) {
+                slot.copy_from_slice(&v.to_bits().to_le_bytes());
+            }
+            put(&record)?;
         }
-    }
-    bytes.extend(fnv1a64(&bytes).to_le_bytes());
-    write_atomically(path, |w| Ok(w.write_all(&bytes)?))
+        w.write_all(&hash.to_le_bytes())?;
+        Ok(())
+    })
+}
+
+/// FNV-1a's starting value; [`fnv_update`] from it over all bytes gives [`fnv1a64`].
+const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
+
+/// Continues a 64-bit FNV-1a hash `h` over `bytes`.
+fn fnv_update(h: u64, bytes: &[u8]) -> u64 {
+    bytes.iter().fold(h, |h, &b| {
+        (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)
+    })
 }
 
 /// Reads a checkpoint: its header and the state it saved. Refuses (naming the file) anything
@@ -134,11 +154,11 @@ pub fn read_checkpoint(path: &Path) -> anyhow::Result<(CheckpointHeader, Progres
     let mut rest = Vec::with_capacity((size - 16 - header_len) as usize);
     file.read_to_end(&mut rest).with_context(named)?;
     let (pixels, checksum) = rest.split_at(rest.len() - 8);
-    let mut hashed = head.to_vec();
-    hashed.extend(&json);
-    hashed.extend(pixels);
+    let hash = [&head[..], &json, pixels]
+        .into_iter()
+        .fold(FNV_OFFSET, fnv_update);
     ensure!(
-        fnv1a64(&hashed).to_le_bytes() == checksum,
+        hash.to_le_bytes() == checksum,
         "{}: checksum does not match (the file is damaged)",
         named()
     );
@@ -232,4 +252,17 @@ pub fn differences(
         pass_spp.to_string(),
     );
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn streamed_hash_is_fnv1a_of_the_whole() {
+        let bytes: Vec<u8> = (0..1000u32).map(|i| (i * 7 + i / 13) as u8).collect();
+        let (a, b) = bytes.split_at(337);
+        let streamed = fnv_update(fnv_update(FNV_OFFSET, a), b);
+        assert_eq!(streamed, super::super::fnv1a64(&bytes));
+    }
 }
