@@ -205,6 +205,9 @@ impl Estimator<'_> {
             let p_l = p_l as f32;
             match &self.lights.lights[l] {
                 Light::Triangle(light) => {
+                    if light.cannot_reach(x.p, x.ng) {
+                        continue;
+                    }
                     for i in 0..self.n {
                         let u = cs.light_point(slot, i);
                         let (f_le_g, p_x, w) =

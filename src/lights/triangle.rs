@@ -157,6 +157,21 @@ impl TriangleLight {
         })
     }
 
+    /// Whether no point of this light can send light to a receiver at p with geometric normal
+    /// `ng` (facing the side the receiver looks from): p lies behind a one-sided emitter
+    /// (n·(p − p0) < 0, the same sign for every x' on the plane), or the whole triangle lies
+    /// below the receiver's tangent plane (ng·(v − p) < 0 at every vertex). Every sample the
+    /// light could give such a receiver carries zero, so a caller may skip drawing them.
+    #[inline]
+    pub fn cannot_reach(&self, p: Vec3, ng: Vec3) -> bool {
+        let to_receiver = p - self.p0;
+        if !self.two_sided && self.normal.dot(to_receiver) < 0.0 {
+            return true;
+        }
+        let below = |v: Vec3| ng.dot(v - p) < 0.0;
+        below(self.p0) && below(self.p0 + self.e1) && below(self.p0 + self.e2)
+    }
+
     /// Draws a point for receiver p; None when the sample carries no light (edge-on).
     #[inline]
     pub fn sample(&self, p: Vec3, technique: Technique, u: [f32; 2]) -> Option<TriangleSample> {
