@@ -4,6 +4,8 @@
 //! plane, and measured variance ratios between M values on a many-light plane. Every pixel must
 //! lie within 5σ of its expected value (σ from the pixels' own sample variances).
 
+use std::path::Path;
+
 use glam::{DVec3, Mat4, Vec3};
 use manylights::film::Film;
 use manylights::integrator::{render, PreparedScene, RenderOptions, Strategy};
@@ -355,4 +357,91 @@ fn variance_falls_with_m_on_many_lights() {
             "{strategy:?}: variance does not fall with M: {v:?}"
         );
     }
+}
+
+fn manylights(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_manylights"))
+        .args(args)
+        .output()
+        .expect("binary runs")
+}
+
+#[test]
+fn m_is_a_usage_error_for_strategies_that_do_not_resample() {
+    let dir = tempfile::tempdir().unwrap();
+    let cornell = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.glb");
+    let out = dir.path().join("o.exr");
+    let o = manylights(&[
+        "render",
+        cornell.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--strategy",
+        "mis",
+        "--m",
+        "4",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--m 4 applies to"));
+    assert!(!out.exists());
+}
+
+#[test]
+fn bench_sweeps_m_for_the_resampling_strategies_only() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("cornell.glb");
+    std::fs::copy(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.glb"),
+        &scene,
+    )
+    .unwrap();
+    let json = dir.path().join("b.json");
+    let o = manylights(&[
+        "bench",
+        scene.to_str().unwrap(),
+        "--width",
+        "8",
+        "--spp",
+        "2",
+        "--repeat",
+        "1",
+        "--reference-spp",
+        "16",
+        "--strategies",
+        "mis,ris,ris-mis",
+        "--m",
+        "1,4",
+        "--baseline",
+        "power:ris:1x1:m4",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let rows: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    let got: Vec<(String, u64)> = rows
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| {
+            (
+                r["strategy"].as_str().unwrap().to_owned(),
+                r["m"].as_u64().unwrap(),
+            )
+        })
+        .collect();
+    let want = [
+        ("mis", 1),
+        ("ris", 1),
+        ("ris", 4),
+        ("ris-mis", 1),
+        ("ris-mis", 4),
+    ];
+    assert_eq!(got, want.map(|(s, m)| (s.to_owned(), m)));
+    assert!(rows
+        .as_array()
+        .unwrap()
+        .iter()
+        .all(|r| r["baseline"] == "power:ris:1x1:m4:2"));
+    let table = String::from_utf8_lossy(&o.stdout);
+    assert!(table.contains("power:ris-mis:1x1:m4"), "{table}");
 }
