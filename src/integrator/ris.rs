@@ -262,7 +262,7 @@ impl Estimator<'_> {
                 (s.wi, s.li, 1.0, visibility, true)
             }
         };
-        if x.ng.dot(wi) <= 0.0 || le == Vec3::ZERO || !(p_dir > 0.0) {
+        if x.ng.dot(wi) <= 0.0 || le == Vec3::ZERO || p_dir.is_nan() || p_dir <= 0.0 {
             return None;
         }
         let f = x.brdf.eval(x.ns, x.wo, wi);
@@ -306,7 +306,7 @@ impl Estimator<'_> {
                 self.environment_density(x, wi),
             ),
         };
-        if le == Vec3::ZERO || !(p_bsdf > 0.0) {
+        if le == Vec3::ZERO || p_bsdf.is_nan() || p_bsdf <= 0.0 {
             return None;
         }
         let f = x.brdf.eval(x.ns, x.wo, wi);
