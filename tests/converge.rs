@@ -19,6 +19,7 @@ fn options(clamp: Option<f32>) -> ConvergeOptions {
             k: 1,
             n: 1,
             sampler: SamplerKind::Independent,
+            m: 1,
         },
         spp: vec![4, 8, 16, 32, 64],
         // 16 seeds over 32×32 pixels put the slope's standard error near 0.04, well inside

@@ -34,7 +34,7 @@ pub struct BenchArgs {
     /// Samples per pixel of a reference bench renders itself.
     #[arg(long, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
     pub reference_spp: u32,
-    /// The configuration ratios compare against, selector:strategy:KxN[:sampler][:spp]
+    /// The configuration ratios compare against, selector:strategy:KxN[:mM][:sampler][:spp]
     /// (default: the first; without :spp, at each row's own spp; without :sampler,
     /// independent).
     #[arg(long)]
@@ -95,7 +95,8 @@ fn or<T: Clone>(values: &[T], default: T) -> Vec<T> {
     }
 }
 
-/// Every (selector, strategy, K, N, sampler) the options ask for, in the order given.
+/// Every (selector, strategy, K, N, M, sampler) the options ask for, in the order given; M is
+/// swept for the resampling strategies only (the others take M = 1).
 pub fn estimators(args: &BenchArgs) -> Result<Vec<EstimatorChoice>, UsageError> {
     let o = &args.options;
     let d = RENDER_DEFAULTS.estimator;
@@ -116,17 +117,30 @@ pub fn estimators(args: &BenchArgs) -> Result<Vec<EstimatorChoice>, UsageError> 
     for selector in or(&o.selector, d.selector) {
         for strategy in or(&o.strategy, d.strategy) {
             for &(k, n) in &kn {
-                for sampler in or(&o.sampler, d.sampler) {
-                    out.push(EstimatorChoice {
-                        selector,
-                        strategy,
-                        k,
-                        n,
-                        sampler,
-                    });
+                let ms = if strategy.resamples() {
+                    or(&o.m, d.m)
+                } else {
+                    vec![1]
+                };
+                for m in ms {
+                    for sampler in or(&o.sampler, d.sampler) {
+                        out.push(EstimatorChoice {
+                            selector,
+                            strategy,
+                            k,
+                            n,
+                            sampler,
+                            m,
+                        });
+                    }
                 }
             }
         }
+    }
+    if !o.m.is_empty() && !out.iter().any(|e| e.strategy.resamples()) {
+        return Err(UsageError(
+            "--m applies to --strategy ris and ris-mis only".into(),
+        ));
     }
     Ok(out)
 }

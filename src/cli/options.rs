@@ -1,6 +1,6 @@
 //! The render options every rendering subcommand shares (render, reference, bench, converge),
 //! with the same names everywhere. Options a sweep can vary (`--spp`, `--selector`,
-//! `--strategy`, `--k`, `--n`, `--sampler`) take comma-separated lists; commands that render one
+//! `--strategy`, `--k`, `--n`, `--m`, `--sampler`) take comma-separated lists; commands that render one
 //! configuration accept exactly one value and fall back to their own default when none is given.
 
 use std::path::PathBuf;
@@ -29,6 +29,10 @@ pub struct RenderOptionsArgs {
     /// Points sampled on each chosen light, N (bench: a list).
     #[arg(long, value_delimiter = ',', value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub n: Vec<u32>,
+    /// RIS candidates per K×N slot, M, for --strategy ris and ris-mis [default: 1] (bench: a
+    /// list, swept for those strategies only).
+    #[arg(long, value_delimiter = ',', value_parser = clap::value_parser!(u32).range(1..=1024))]
+    pub m: Vec<u32>,
     /// Light selector [default: power; reference: bvh] (bench: a list, also as --selectors).
     #[arg(long, value_enum, value_delimiter = ',', alias = "selectors")]
     pub selector: Vec<SelectorKind>,
@@ -82,7 +86,7 @@ pub struct Defaults {
 }
 
 /// `render`'s defaults: 16 spp, power selection, light-area sampling, K = N = 1, independent
-/// numbers.
+/// numbers, M = 1.
 pub const RENDER_DEFAULTS: Defaults = Defaults {
     spp: 16,
     estimator: EstimatorChoice {
@@ -91,6 +95,7 @@ pub const RENDER_DEFAULTS: Defaults = Defaults {
         k: 1,
         n: 1,
         sampler: SamplerKind::Independent,
+        m: 1,
     },
 };
 
@@ -98,13 +103,21 @@ impl RenderOptionsArgs {
     /// The single estimator configuration of a one-configuration command.
     pub fn estimator(&self, defaults: &Defaults) -> Result<EstimatorChoice, UsageError> {
         let d = defaults.estimator;
-        Ok(EstimatorChoice {
+        let choice = EstimatorChoice {
             selector: single("--selector", &self.selector, d.selector)?,
             strategy: single("--strategy", &self.strategy, d.strategy)?,
             k: single("--k", &self.k, d.k)?,
             n: single("--n", &self.n, d.n)?,
             sampler: single("--sampler", &self.sampler, d.sampler)?,
-        })
+            m: single("--m", &self.m, d.m)?,
+        };
+        if choice.m != 1 && !choice.strategy.resamples() {
+            return Err(UsageError(format!(
+                "--m {} applies to --strategy ris and ris-mis only",
+                choice.m
+            )));
+        }
+        Ok(choice)
     }
 
     /// The single spp of a one-configuration command.

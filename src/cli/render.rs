@@ -57,6 +57,8 @@ pub struct RenderSummary {
     pub spp: u32,
     pub k: u32,
     pub n: u32,
+    /// RIS candidates per K×N slot (1 for strategies that do not resample).
+    pub m: u32,
     pub selector: SelectorKind,
     pub strategy: Strategy,
     pub sampler: SamplerKind,
@@ -143,7 +145,9 @@ fn render_scene(
             o.scene.display()
         );
     }
-    let estimator = prepared.estimator(choice.strategy, choice.k, choice.n);
+    let estimator = prepared
+        .estimator(choice.strategy, choice.k, choice.n)
+        .with_candidates(choice.m);
     let opts = RenderOptions {
         width,
         height,
@@ -183,6 +187,7 @@ fn render_scene(
         spp,
         k: choice.k,
         n: choice.n,
+        m: choice.m,
         selector: choice.selector,
         strategy: choice.strategy,
         sampler: choice.sampler,
@@ -224,8 +229,8 @@ fn print_summary(s: &RenderSummary) {
         s.total_power
     );
     println!(
-        "image     {}x{}, {} spp, K x N = {} x {}, selector {:?}, strategy {:?}, sampler {:?}, seed {}, {} threads",
-        s.width, s.height, s.spp, s.k, s.n, s.selector, s.strategy, s.sampler, s.seed, s.threads
+        "image     {}x{}, {} spp, K x N = {} x {}, M = {}, selector {:?}, strategy {:?}, sampler {:?}, seed {}, {} threads",
+        s.width, s.height, s.spp, s.k, s.n, s.m, s.selector, s.strategy, s.sampler, s.seed, s.threads
     );
     if let Some(e) = &s.environment {
         println!(

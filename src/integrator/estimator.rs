@@ -28,6 +28,10 @@ use crate::sampling::warp::{self, Frame};
 use crate::scene::Scene;
 use crate::select::{LightSelector, ShadingContext};
 
+// RIS reads the shading point and the emission helpers of this module, so it is a child of it.
+#[path = "ris.rs"]
+mod ris;
+
 /// Rays traced and sampling decisions, by kind.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub struct SampleCounts {
@@ -64,6 +68,8 @@ pub struct Estimator<'a> {
     pub strategy: Strategy,
     pub k: u32,
     pub n: u32,
+    /// Candidates per K×N slot for `ris` and `ris-mis` (see `with_candidates`).
+    pub m: u32,
 }
 
 /// The first visible point, with its normals turned toward the viewer.
@@ -128,6 +134,8 @@ impl Estimator<'_> {
             Strategy::HemisphereUniform | Strategy::HemisphereCosine => {
                 self.hemisphere(&x, cs, counts)
             }
+            Strategy::Ris => self.resampled(&x, false, cs, counts),
+            Strategy::RisMis => self.resampled(&x, true, cs, counts),
         };
         emitted + reflected
     }

@@ -27,4 +27,17 @@ pub enum Strategy {
     HemisphereUniform,
     /// K·N cosine-distributed directions; one ray each, adding the emission it hits.
     HemisphereCosine,
+    /// Resampled importance sampling: M light-solid-angle candidates per K×N slot, one kept ∝
+    /// the unshadowed luminance of f·Le·cosθ, one shadow ray (M = 1: light-solid-angle).
+    Ris,
+    /// As ris, with the slot's BSDF direction as one more candidate and balance-heuristic
+    /// multiple-proposal weights; one BSDF ray and one shadow ray per slot.
+    RisMis,
+}
+
+impl Strategy {
+    /// Whether this strategy resamples M candidates per slot (M, `--m`, applies to it).
+    pub fn resamples(self) -> bool {
+        matches!(self, Strategy::Ris | Strategy::RisMis)
+    }
 }

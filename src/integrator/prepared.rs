@@ -40,7 +40,8 @@ impl PreparedScene {
         }
     }
 
-    /// The K×N estimator for one strategy over this scene.
+    /// The K×N estimator for one strategy over this scene (M = 1 candidate; see
+    /// `Estimator::with_candidates`).
     pub fn estimator(&self, strategy: Strategy, k: u32, n: u32) -> Estimator<'_> {
         Estimator {
             scene: &self.scene,
@@ -50,6 +51,7 @@ impl PreparedScene {
             strategy,
             k,
             n,
+            m: 1,
         }
     }
 }

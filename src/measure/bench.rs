@@ -42,6 +42,8 @@ pub struct BenchRow {
     pub k: u32,
     pub n: u32,
     pub sampler: SamplerKind,
+    /// RIS candidates per K×N slot (1 for strategies that do not resample).
+    pub m: u32,
     /// Samples per pixel (with a time budget: the median reached over repeats).
     pub spp: u32,
     /// Median render seconds over repeats.
@@ -84,7 +86,7 @@ pub struct BenchRow {
 }
 
 impl BenchRow {
-    /// `selector:strategy:KxN[:sampler]:spp`, the form `--baseline` accepts.
+    /// `selector:strategy:KxN[:mM][:sampler]:spp`, the form `--baseline` accepts.
     pub fn label(&self) -> String {
         format!("{}:{}", estimator_label(&self.estimator()), self.spp)
     }
@@ -96,12 +98,13 @@ impl BenchRow {
             k: self.k,
             n: self.n,
             sampler: self.sampler,
+            m: self.m,
         }
     }
 }
 
-/// `selector:strategy:KxN[:sampler]` with the CLI's spellings; the sampler is named unless it
-/// is the default, independent.
+/// `selector:strategy:KxN[:mM][:sampler]` with the CLI's spellings; M is named for the
+/// resampling strategies, the sampler unless it is the default, independent.
 pub fn estimator_label(e: &EstimatorChoice) -> String {
     use clap::ValueEnum;
     let name =
@@ -110,8 +113,13 @@ pub fn estimator_label(e: &EstimatorChoice) -> String {
         SamplerKind::Independent => String::new(),
         s => format!(":{}", name(s.to_possible_value())),
     };
+    let m = if e.strategy.resamples() {
+        format!(":m{}", e.m)
+    } else {
+        String::new()
+    };
     format!(
-        "{}:{}:{}x{}{sampler}",
+        "{}:{}:{}x{}{m}{sampler}",
         name(e.selector.to_possible_value()),
         name(e.strategy.to_possible_value()),
         e.k,
@@ -168,7 +176,9 @@ pub fn run(
     for kind in selectors {
         let prepared = PreparedScene::new(setup.scene.clone(), kind);
         for e in plan.estimators.iter().filter(|e| e.selector == kind) {
-            let estimator = prepared.estimator(e.strategy, e.k, e.n);
+            let estimator = prepared
+                .estimator(e.strategy, e.k, e.n)
+                .with_candidates(e.m);
             for &spp in &spps {
                 let runs: Vec<Run> = (0..plan.repeat.max(1))
                     .map(|r| {
@@ -247,6 +257,7 @@ fn aggregate(e: EstimatorChoice, plan: &BenchPlan, runs: Vec<Run>) -> BenchRow {
         k: e.k,
         n: e.n,
         sampler: e.sampler,
+        m: e.m,
         spp,
         seconds,
         seconds_min: secs.iter().cloned().fold(f64::INFINITY, f64::min),
@@ -287,7 +298,7 @@ pub fn median(xs: &mut [f64]) -> f64 {
     }
 }
 
-/// Fills each row's ratios against the baseline: `selector:strategy:KxN[:sampler][:spp]`. Without
+/// Fills each row's ratios against the baseline: `selector:strategy:KxN[:mM][:sampler][:spp]`. Without
 /// `:spp` (and by default, with the first row's configuration), each row is compared with the
 /// baseline configuration at its own spp (or the first baseline row when that spp is missing).
 /// Errors when no row matches.
@@ -331,7 +342,7 @@ pub fn apply_baseline(rows: &mut [BenchRow], baseline: Option<&str>) -> Result<(
 /// What one estimator configuration needs to reach a target relMSE.
 #[derive(Clone, Debug, Serialize)]
 pub struct TargetAnswer {
-    /// `selector:strategy:KxN[:sampler]`.
+    /// `selector:strategy:KxN[:mM][:sampler]`.
     pub config: String,
     /// None when its measured relMSE does not fall with spp.
     pub cost: Option<TargetCost>,

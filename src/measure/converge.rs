@@ -78,7 +78,9 @@ pub struct ConvergeReport {
 pub fn run(setup: &SceneSetup, reference: &Reference, opts: &ConvergeOptions) -> ConvergeReport {
     let e = opts.estimator;
     let prepared = PreparedScene::new(setup.scene.clone(), e.selector);
-    let estimator = prepared.estimator(e.strategy, e.k, e.n);
+    let estimator = prepared
+        .estimator(e.strategy, e.k, e.n)
+        .with_candidates(e.m);
     let pixels = (setup.width * setup.height) as f64;
     let mut spps = opts.spp.clone();
     spps.sort_unstable();

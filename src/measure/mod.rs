@@ -36,6 +36,14 @@ pub struct EstimatorChoice {
     /// Absent from files written before samplers existed: those used independent numbers.
     #[serde(default)]
     pub sampler: SamplerKind,
+    /// RIS candidates per K×N slot (`ris`, `ris-mis`; 1 for every other strategy). Absent from
+    /// files written before RIS existed.
+    #[serde(default = "one_candidate")]
+    pub m: u32,
+}
+
+fn one_candidate() -> u32 {
+    1
 }
 
 /// A scene loaded for measurement, with the content hash that identifies its references.

@@ -26,6 +26,7 @@ pub const DEFAULT_ESTIMATOR: EstimatorChoice = EstimatorChoice {
     k: 1,
     n: 1,
     sampler: SamplerKind::Independent,
+    m: 1,
 };
 
 /// Samples per pixel of each progressive pass of a reference.
@@ -137,7 +138,9 @@ pub fn render_reference_passes(
 ) -> Progressive {
     let e = options.estimator;
     let prepared = PreparedScene::new(setup.scene.clone(), e.selector);
-    let estimator = prepared.estimator(e.strategy, e.k, e.n);
+    let estimator = prepared
+        .estimator(e.strategy, e.k, e.n)
+        .with_candidates(e.m);
     let opts = RenderOptions {
         width: setup.width,
         height: setup.height,
