@@ -17,7 +17,7 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-use super::errors::{Against, ErrorAccumulator, Errors, WORST_PIXEL_SHARE_FLAG};
+use super::errors::{not_falling, Against, ErrorAccumulator, Errors, WORST_PIXEL_SHARE_FLAG};
 use super::fit::{cost_to_target, TargetCost, TargetPoint};
 use super::metrics::compare;
 use super::progressive::{render_progressive, Budget};
@@ -354,27 +354,14 @@ pub fn flag_heavy_tails(rows: &mut [BenchRow]) {
                 }
             ));
         }
-        // The same configuration at the next larger spp.
+        // This row and the same configuration at the next larger spp.
         let next = rows
             .iter()
             .filter(|r| r.estimator() == rows[i].estimator() && r.spp > rows[i].spp)
             .min_by_key(|r| r.spp);
+        let point = |r: &BenchRow| (r.spp, r.mse, r.errors.lit.as_ref().map(|l| l.mse));
         if let Some(next) = next {
-            let lit = |r: &BenchRow| r.errors.lit.as_ref().map(|l| l.mse);
-            if next.mse >= rows[i].mse {
-                reasons.push(format!(
-                    "MSE does not fall from {} to {} spp",
-                    rows[i].spp, next.spp
-                ));
-            }
-            if let (Some(a), Some(b)) = (lit(&rows[i]), lit(next)) {
-                if b >= a {
-                    reasons.push(format!(
-                        "lit-surface MSE does not fall from {} to {} spp",
-                        rows[i].spp, next.spp
-                    ));
-                }
-            }
+            reasons.extend(not_falling(&[point(&rows[i]), point(next)]));
         }
         if !reasons.is_empty() {
             rows[i].heavy_tail = Some(reasons.join("; "));

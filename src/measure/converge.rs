@@ -16,7 +16,7 @@
 
 use serde::Serialize;
 
-use super::errors::{Against, ErrorAccumulator, Errors};
+use super::errors::{not_falling, Against, ErrorAccumulator, Errors};
 use super::fit::fit_loglog;
 use super::reference::Reference;
 use super::{mean_image, EstimatorChoice, SceneSetup};
@@ -239,23 +239,12 @@ pub fn run(
     }
 }
 
-/// Why a series of levels (sorted by spp) looks heavy-tailed: mean MSE over all or over
-/// lit-surface pixels not falling from one spp to the next.
+/// Why a series of levels (sorted by spp) looks heavy-tailed (see [`not_falling`]).
 fn heavy_tail(levels: &[Level]) -> Option<String> {
-    let mut reasons = Vec::new();
-    for pair in levels.windows(2) {
-        let (a, b) = (&pair[0], &pair[1]);
-        if b.mse_mean >= a.mse_mean {
-            reasons.push(format!("MSE does not fall from {} to {} spp", a.spp, b.spp));
-        }
-        if let (Some(la), Some(lb)) = (&a.errors.lit, &b.errors.lit) {
-            if lb.mse >= la.mse {
-                reasons.push(format!(
-                    "lit-surface MSE does not fall from {} to {} spp",
-                    a.spp, b.spp
-                ));
-            }
-        }
-    }
+    let series: Vec<(u32, f64, Option<f64>)> = levels
+        .iter()
+        .map(|l| (l.spp, l.mse_mean, l.errors.lit.as_ref().map(|e| e.mse)))
+        .collect();
+    let reasons = not_falling(&series);
     (!reasons.is_empty()).then(|| reasons.join("; "))
 }

@@ -191,6 +191,28 @@ impl ErrorAccumulator {
     }
 }
 
+/// One configuration's mean MSE at increasing spp: (spp, MSE over all pixels, MSE over
+/// lit-surface pixels). Returns, for each step where either MSE does not fall, why: with
+/// independent samples it should fall in proportion to the spp, so a flat or rising step is a
+/// sign of heavy tails (rare huge samples) rather than of slow convergence.
+pub fn not_falling(series: &[(u32, f64, Option<f64>)]) -> Vec<String> {
+    let mut reasons = Vec::new();
+    for pair in series.windows(2) {
+        let ((s0, a0, l0), (s1, a1, l1)) = (pair[0], pair[1]);
+        if a1 >= a0 {
+            reasons.push(format!("MSE does not fall from {s0} to {s1} spp"));
+        }
+        if let (Some(l0), Some(l1)) = (l0, l1) {
+            if l1 >= l0 {
+                reasons.push(format!(
+                    "lit-surface MSE does not fall from {s0} to {s1} spp"
+                ));
+            }
+        }
+    }
+    reasons
+}
+
 /// Mean of per-render figures and its 95% interval across renders (t quantile; None for one).
 pub fn mean_and_interval(xs: &[f64]) -> (f64, Option<[f64; 2]>) {
     let n = xs.len() as f64;
@@ -277,6 +299,27 @@ mod tests {
         let [lo, hi] = e.all.mse_interval.unwrap();
         let half = 12.706 * (9.25f64 / 6.0) / 2.0f64.sqrt() / 2.0f64.sqrt();
         assert!((hi - lo - 2.0 * half).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_rising_step_is_named_and_a_falling_series_is_not() {
+        let falling = [
+            (1, 1.0, Some(0.5)),
+            (4, 0.26, Some(0.12)),
+            (16, 0.06, Some(0.03)),
+        ];
+        assert!(not_falling(&falling).is_empty());
+        // Heavy tails: the 64-spp MSE above the 16-spp one (power + light-area on a city).
+        let rising = [(16, 0.06, Some(0.03)), (64, 0.08, Some(0.01))];
+        assert_eq!(
+            not_falling(&rising),
+            ["MSE does not fall from 16 to 64 spp"]
+        );
+        let lit_flat = [(16, 0.06, Some(0.03)), (64, 0.02, Some(0.03))];
+        assert_eq!(
+            not_falling(&lit_flat),
+            ["lit-surface MSE does not fall from 16 to 64 spp"]
+        );
     }
 
     #[test]
