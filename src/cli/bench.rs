@@ -538,3 +538,23 @@ fn print_target(answers: &[TargetAnswer], target: f64, on_lit: bool) {
         None => println!("cheapest: none can be named (no configuration has a point estimate)"),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn external_specs_split_from_the_right_and_keep_colons_in_paths() {
+        let p = parse_external("cycles=/data/a:b/img.EXR:2.5:16").unwrap();
+        assert_eq!(p.name, "cycles");
+        assert_eq!(p.path, PathBuf::from("/data/a:b/img.EXR"));
+        assert_eq!((p.seconds, p.spp), (Some(2.5), Some(16)));
+        let p = parse_external("m=img.exr:3").unwrap();
+        assert_eq!((p.seconds, p.spp), (Some(3.0), None));
+        let p = parse_external("m=img.exr").unwrap();
+        assert_eq!((p.seconds, p.spp), (None, None));
+        for bad in ["img.exr", "=img.exr", "a:b=img.exr", "m=img.png", "m=img.exr:-1"] {
+            assert!(parse_external(bad).is_err(), "{bad}");
+        }
+    }
+}
