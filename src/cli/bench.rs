@@ -553,7 +553,13 @@ mod tests {
         assert_eq!((p.seconds, p.spp), (Some(3.0), None));
         let p = parse_external("m=img.exr").unwrap();
         assert_eq!((p.seconds, p.spp), (None, None));
-        for bad in ["img.exr", "=img.exr", "a:b=img.exr", "m=img.png", "m=img.exr:-1"] {
+        for bad in [
+            "img.exr",
+            "=img.exr",
+            "a:b=img.exr",
+            "m=img.png",
+            "m=img.exr:-1",
+        ] {
             assert!(parse_external(bad).is_err(), "{bad}");
         }
     }
