@@ -141,7 +141,7 @@ fn draw_panel<DB: DrawingBackend>(
         chart.draw_series(points.iter().filter_map(|&(x, y, interval)| {
             let [lo, hi] = interval?;
             Some(PathElement::new(
-                vec![(x, lo.max(y / 1e3)), (x, hi)],
+                vec![(x, lo.max(y0)), (x, hi.min(y1))],
                 colour.stroke_width(1),
             ))
         }))?;
