@@ -138,7 +138,7 @@ fn draw_panel<DB: DrawingBackend>(
                 });
             chart.draw_series(xy.iter().map(|&p| Circle::new(p, 4, colour.filled())))?;
         }
-        chart.draw_series(points.iter().filter_map(|&(x, y, interval)| {
+        chart.draw_series(points.iter().filter_map(|&(x, _, interval)| {
             let [lo, hi] = interval?;
             Some(PathElement::new(
                 vec![(x, lo.max(y0)), (x, hi.min(y1))],
