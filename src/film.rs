@@ -11,6 +11,8 @@ pub struct PixelStats {
     pub mean: DVec3,
     /// Σ (x − mean)², updated incrementally.
     pub m2: DVec3,
+    /// How many of the `count` samples' primary rays hit a surface without emission.
+    pub surface: u64,
 }
 
 impl PixelStats {
@@ -35,6 +37,17 @@ impl PixelStats {
         self.mean += delta * (nb / n);
         self.m2 += other.m2 + delta * delta * (na * nb / n);
         self.count += other.count;
+        self.surface += other.surface;
+    }
+
+    /// Fraction of the samples whose primary ray hit a surface without emission (0 without
+    /// samples).
+    pub fn surface_fraction(&self) -> f64 {
+        if self.count == 0 {
+            0.0
+        } else {
+            self.surface as f64 / self.count as f64
+        }
     }
 
     /// Unbiased sample variance of one sample, s² = M2 / (n − 1).
@@ -99,6 +112,14 @@ impl Film {
         self.pixels
             .iter()
             .map(|p| p.mean.as_vec3().to_array())
+            .collect()
+    }
+
+    /// Per pixel, the fraction of samples whose primary ray hit a surface without emission.
+    pub fn surface_fractions(&self) -> Vec<f32> {
+        self.pixels
+            .iter()
+            .map(|p| p.surface_fraction() as f32)
             .collect()
     }
 

@@ -51,14 +51,14 @@ fn converge_passes_unbiased_and_fails_clamped() {
         |_, _| {},
     );
 
-    let good = run(&setup, &reference, &options(None));
+    let good = run(&setup, &reference, None, &options(None));
     assert!(good.passed, "{:#?}", good.checks);
     assert!((good.slope + 1.0).abs() <= 0.15);
     assert!(good.slope_interval[0] < good.slope && good.slope < good.slope_interval[1]);
     assert_eq!(good.levels.len(), 5);
     assert!(!good.biased);
 
-    let clamped = run(&setup, &reference, &options(Some(0.5)));
+    let clamped = run(&setup, &reference, None, &options(Some(0.5)));
     assert!(!clamped.passed);
     assert!(clamped.biased);
     let verdict = |name| {

@@ -306,3 +306,123 @@ fn bench_sweeps_samplers_and_converge_records_its_sampler() {
     let o = manylights(&["converge", s, "--sampler", "sobol,halton"]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
 }
+
+#[test]
+fn external_row_reproduces_diff_and_every_report_has_lit_and_corrected_figures() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = cornell_copy(dir.path());
+    let path = |f: &str| dir.path().join(f).to_str().unwrap().to_owned();
+    let s = scene.to_str().unwrap();
+    let reference = manylights(&[
+        "reference",
+        s,
+        "--width",
+        "24",
+        "--spp",
+        "64",
+        "-o",
+        &path("ref.exr"),
+    ]);
+    assert!(reference.status.success(), "{}", stderr(&reference));
+    let render = manylights(&[
+        "render",
+        s,
+        "--width",
+        "24",
+        "--spp",
+        "4",
+        "--selector",
+        "power",
+        "--strategy",
+        "light-area",
+        "-o",
+        &path("mine.exr"),
+    ]);
+    assert!(render.status.success(), "{}", stderr(&render));
+    let diff = manylights(&[
+        "diff",
+        &path("mine.exr"),
+        &path("ref.exr"),
+        "--json",
+        &path("d.json"),
+    ]);
+    assert!(diff.status.success(), "{}", stderr(&diff));
+    let diff_out = String::from_utf8_lossy(&diff.stdout);
+    assert!(
+        diff_out.contains("lit mse") && diff_out.contains("mse-var[ref]"),
+        "{diff_out}"
+    );
+    let bench = manylights(&[
+        "bench",
+        s,
+        "--width",
+        "24",
+        "--selector",
+        "power",
+        "--strategy",
+        "light-area",
+        "--spp",
+        "1,4",
+        "--repeat",
+        "2",
+        "--reference",
+        &path("ref.exr"),
+        "--external",
+        &format!("mine={}:0.25:4", path("mine.exr")),
+        "--target-relmse",
+        "1e-3",
+        "--json",
+        &path("b.json"),
+        "--csv",
+        &path("b.csv"),
+        "--plot",
+        &path("b.svg"),
+    ]);
+    assert!(bench.status.success(), "{}", stderr(&bench));
+    let rows = json(&dir.path().join("b.json"));
+    let rows = rows.as_array().unwrap();
+    assert_eq!(rows.len(), 3);
+    let external = &rows[2];
+    assert_eq!(external["external"], true);
+    assert_eq!(external["name"], "mine");
+    assert_eq!(external["seconds"], 0.25);
+    assert_eq!(external["spp"], 4);
+    let diff_json = json(&dir.path().join("d.json"));
+    // Same image, same reference, same code path: the figures are equal, not just close.
+    assert_eq!(external["errors"], diff_json["errors"]);
+    for key in ["mse", "relmse", "max_abs", "psnr"] {
+        assert_eq!(external[key], diff_json[key], "{key}");
+    }
+    for row in rows {
+        let lit = &row["errors"]["lit"];
+        assert!(lit["pixels"].as_u64().unwrap() > 0, "{row}");
+        let all = &row["errors"]["all"];
+        let corrected = all["mse_corrected"].as_f64().unwrap();
+        let ref_var = all["reference_variance"].as_f64().unwrap();
+        assert!(
+            (all["mse"].as_f64().unwrap() - ref_var - corrected).abs()
+                <= 1e-9 * corrected.abs().max(1e-12) + 1e-12
+        );
+    }
+    let csv = std::fs::read_to_string(dir.path().join("b.csv")).unwrap();
+    assert!(csv.lines().next().unwrap().contains("lit MSE-Var[ref]"));
+    assert!(csv.lines().last().unwrap().starts_with("external:mine,4,"));
+    let plot = std::fs::read_to_string(dir.path().join("b.svg")).unwrap();
+    assert!(plot.contains("lit-surface pixels") && plot.contains("external:mine"));
+    let out = String::from_utf8_lossy(&bench.stdout);
+    assert!(
+        out.contains("external:mine") && out.contains("time to reach relMSE"),
+        "{out}"
+    );
+    assert!(out.contains("95% interval"), "{out}");
+}
+
+#[test]
+fn external_spec_errors_are_usage_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = cornell_copy(dir.path());
+    for bad in ["noequals.exr", "x=image.png", "x=a.exr:fast", "x=a.exr:1:0"] {
+        let o = manylights(&["bench", scene.to_str().unwrap(), "--external", bad]);
+        assert_eq!(o.status.code(), Some(2), "{bad}: {}", stderr(&o));
+    }
+}

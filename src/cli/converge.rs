@@ -7,7 +7,7 @@ use clap::Args;
 
 use super::options::{check_resolution, RenderOptionsArgs, RENDER_DEFAULTS};
 use super::output::check_output_path;
-use super::reference::obtain_reference;
+use super::reference::{lit_mask_for, obtain_reference};
 use super::UsageError;
 use crate::measure::converge::{run, ConvergeOptions, ConvergeReport};
 use crate::measure::report::write_json;
@@ -80,7 +80,8 @@ pub fn run_converge(args: &ConvergeArgs) -> anyhow::Result<bool> {
         .unwrap_or_else(|| max_spp.saturating_mul(64));
     let reference =
         pool.install(|| obtain_reference(&setup, args.reference.as_deref(), reference_spp))?;
-    let report = pool.install(|| run(&setup, &reference, &opts));
+    let lit = pool.install(|| lit_mask_for(&setup, &reference));
+    let report = pool.install(|| run(&setup, &reference, Some(&lit), &opts));
     print_report(&report);
     if let Some(p) = &args.json {
         write_json(p, &report)?;
@@ -101,13 +102,29 @@ fn print_report(r: &ConvergeReport) {
         r.clamp
             .map_or(String::new(), |c| format!(", clamp {c} (biased)"))
     );
+    let opt = |x: Option<f64>| x.map_or("-".to_owned(), |v| format!("{v:.4e}"));
     for l in &r.levels {
-        println!("  spp {:>6}  MSE {:.4e}", l.spp, l.mse_mean);
+        let lit = l.errors.lit.as_ref();
+        println!(
+            "  spp {:>6}  MSE {:.4e}  MSE-Var[ref] {}  lit MSE {}  lit MSE-Var[ref] {}",
+            l.spp,
+            l.mse_mean,
+            opt(l.errors.all.mse_corrected),
+            opt(lit.map(|l| l.mse)),
+            opt(lit.and_then(|l| l.mse_corrected))
+        );
     }
     println!(
         "slope     {:.3}, 95% interval [{:.3}, {:.3}]",
         r.slope, r.slope_interval[0], r.slope_interval[1]
     );
+    if let (Some(s), Some([lo, hi])) = (r.lit_slope, r.lit_slope_interval) {
+        println!("lit slope {s:.3}, 95% interval [{lo:.3}, {hi:.3}] (lit-surface pixels)");
+    }
+    if let Some(why) = &r.heavy_tail {
+        eprintln!("warning: heavy-tailed: {why}");
+        println!("heavy tail: {why}");
+    }
     for c in &r.checks {
         println!(
             "{:<9} {}  {}",

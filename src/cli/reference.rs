@@ -16,6 +16,7 @@ use super::options::{check_resolution, Defaults, RenderOptionsArgs};
 use super::output::check_output_path;
 use super::{BadInput, UsageError};
 use crate::measure::checkpoint::{checkpoint_path, differences, read_checkpoint, write_checkpoint};
+use crate::measure::mask::{lit_mask, primary_surface_fractions, RECOMPUTE_GRID};
 use crate::measure::progressive::{Budget, Flow, PassCount, Progressive};
 use crate::measure::reference::{
     cache_path, cached_or_render, finish_reference, read_reference, render_reference_passes,
@@ -193,6 +194,13 @@ pub fn run(args: &ReferenceArgs) -> anyhow::Result<()> {
         "relmse    {:.3e} (the reference's own, estimated from its variance)",
         meta.relmse_estimate
     );
+    if let Some(surface) = &reference.surface {
+        let lit = lit_mask(surface).iter().filter(|&&l| l).count();
+        println!(
+            "lit       {lit} of {} pixels are lit surface (every primary ray hit a surface without emission)",
+            surface.len()
+        );
+    }
     if meta.nan_samples + meta.inf_samples > 0 {
         println!(
             "nan/inf   {} NaN, {} Inf samples (left out)",
@@ -389,4 +397,22 @@ pub fn obtain_reference(
         ),
     }
     Ok(r)
+}
+
+/// The lit-surface mask of `reference` (see `measure::mask`): from its `surface` channel, or,
+/// for a reference without one, recomputed by a primary-visibility pass over `setup` (with a
+/// note on stderr).
+pub fn lit_mask_for(setup: &SceneSetup, reference: &Reference) -> Vec<bool> {
+    match &reference.surface {
+        Some(surface) => lit_mask(surface),
+        None => {
+            eprintln!(
+                "note: reference {} has no surface channel (written by an older version or \
+                 another program); lit-surface mask recomputed from primary visibility, \
+                 {RECOMPUTE_GRID}x{RECOMPUTE_GRID} rays per pixel",
+                reference.path.display()
+            );
+            lit_mask(&primary_surface_fractions(setup, RECOMPUTE_GRID))
+        }
+    }
 }

@@ -1,4 +1,5 @@
-//! OpenEXR output and input: float32 R, G, B of the mean and optional variance.R/G/B channels.
+//! OpenEXR output and input: float32 R, G, B of the mean, optional variance.R/G/B channels and
+//! an optional single `surface` channel (a reference's lit-surface fraction per pixel).
 
 use std::path::Path;
 
@@ -35,6 +36,10 @@ const MEAN_CHANNELS: [&str; 3] = ["R", "G", "B"];
 /// shown part by part by older readers.
 const VARIANCE_CHANNELS: [&str; 3] = ["variance.R", "variance.G", "variance.B"];
 
+/// Name of the optional single channel holding, per pixel, the fraction of samples whose
+/// primary ray hit a surface without emission (written with references).
+const SURFACE_CHANNEL: &str = "surface";
+
 /// The three channels of `image` under `names` (R, G, B order). All are
 /// marked not perceptually linear ("pLinear" off), as the exr crate does for
 /// plain R, G, B; it would otherwise guess "on" from the `variance.` names.
@@ -53,6 +58,16 @@ fn rgb_channels(image: &RgbImage, names: [&str; 3]) -> [AnyChannel<FlatSamples>;
 /// one single-part layer, RLE-compressed per scan line. Equal inputs give
 /// byte-identical files. Written through [`write_atomically`].
 pub fn write_exr(path: &Path, mean: &RgbImage, variance: Option<&RgbImage>) -> anyhow::Result<()> {
+    write_exr_with_surface(path, mean, variance, None)
+}
+
+/// As [`write_exr`], with a `surface` channel from `surface` (one value per pixel) when given.
+pub fn write_exr_with_surface(
+    path: &Path,
+    mean: &RgbImage,
+    variance: Option<&RgbImage>,
+    surface: Option<&[f32]>,
+) -> anyhow::Result<()> {
     check_image(mean, "mean")?;
     let mut channels: SmallVec<[AnyChannel<FlatSamples>; 4]> =
         rgb_channels(mean, MEAN_CHANNELS).into_iter().collect();
@@ -67,6 +82,19 @@ pub fn write_exr(path: &Path, mean: &RgbImage, variance: Option<&RgbImage>) -> a
             mean.height
         );
         channels.extend(rgb_channels(variance, VARIANCE_CHANNELS));
+    }
+    if let Some(surface) = surface {
+        ensure!(
+            surface.len() == mean.pixels.len(),
+            "surface channel has {} values for {}×{} pixels",
+            surface.len(),
+            mean.width,
+            mean.height
+        );
+        channels.push(AnyChannel {
+            quantize_linearly: false,
+            ..AnyChannel::new(SURFACE_CHANNEL, FlatSamples::F32(surface.to_vec()))
+        });
     }
     let layer = Layer::new(
         (mean.width, mean.height),
@@ -134,6 +162,20 @@ fn check_declared_size(path: &Path) -> anyhow::Result<()> {
 /// `variance.B` as the variance. Samples stored as f16 or u32 are converted to
 /// f32. Fails, naming the file, if it is not OpenEXR or lacks R, G or B.
 pub fn read_exr_rgb(path: &Path) -> anyhow::Result<(RgbImage, Option<RgbImage>)> {
+    let layers = read_exr_layers(path)?;
+    Ok((layers.mean, layers.variance))
+}
+
+/// Everything [`read_exr_layers`] finds in a file.
+pub struct ExrLayers {
+    pub mean: RgbImage,
+    pub variance: Option<RgbImage>,
+    /// The `surface` channel, one value per pixel, when the file has one.
+    pub surface: Option<Vec<f32>>,
+}
+
+/// As [`read_exr_rgb`], with the `surface` channel too when the file has one.
+pub fn read_exr_layers(path: &Path) -> anyhow::Result<ExrLayers> {
     check_declared_size(path)?;
     let image = read()
         .no_deep_data()
@@ -182,7 +224,23 @@ pub fn read_exr_rgb(path: &Path) -> anyhow::Result<(RgbImage, Option<RgbImage>)>
     } else {
         None
     };
-    Ok((mean, variance))
+    let surface = match find(SURFACE_CHANNEL) {
+        Some(channel) => {
+            ensure!(
+                channel.sample_data.len() == width * height,
+                "{}: channel {SURFACE_CHANNEL} has {} samples for {width}×{height} pixels",
+                path.display(),
+                channel.sample_data.len()
+            );
+            Some(channel.sample_data.values_as_f32().collect())
+        }
+        None => None,
+    };
+    Ok(ExrLayers {
+        mean,
+        variance,
+        surface,
+    })
 }
 
 #[cfg(test)]
@@ -210,6 +268,22 @@ mod tests {
         assert_eq!((read_variance.width, read_variance.height), (37, 23));
         assert_eq!(bits(&read_variance), bits(&variance));
         assert_eq!(entries(dir.path()), ["render.exr"]);
+    }
+
+    #[test]
+    fn surface_channel_round_trips_and_is_absent_from_plain_files() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("ref.exr");
+        let mean = noisy_image(5, 4, 8);
+        let surface: Vec<f32> = (0..20).map(|i| i as f32 / 19.0).collect();
+        write_exr_with_surface(&path, &mean, None, Some(&surface)).unwrap();
+        let layers = read_exr_layers(&path).unwrap();
+        assert_eq!(layers.mean, mean);
+        assert!(layers.variance.is_none());
+        assert_eq!(layers.surface.as_deref(), Some(&surface[..]));
+        write_exr(&path, &mean, None).unwrap();
+        assert!(read_exr_layers(&path).unwrap().surface.is_none());
+        assert!(write_exr_with_surface(&path, &mean, None, Some(&surface[1..])).is_err());
     }
 
     #[test]

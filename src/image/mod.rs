@@ -10,7 +10,7 @@ mod exr;
 mod png;
 
 pub use self::atomic::write_atomically;
-pub use self::exr::{read_exr_rgb, write_exr};
+pub use self::exr::{read_exr_layers, read_exr_rgb, write_exr, write_exr_with_surface, ExrLayers};
 pub use self::png::{write_png_preview, write_rgb8};
 
 use std::path::Path;

@@ -42,6 +42,8 @@ pub struct SampleCounts {
     /// Triangle-light samples drawn in solid angle (Arvo) and by area (including the fallback).
     pub spherical_samples: u64,
     pub area_samples: u64,
+    /// Camera rays whose first hit is a surface without emission (the lit-surface mask).
+    pub surface_hits: u64,
 }
 
 impl SampleCounts {
@@ -55,6 +57,7 @@ impl SampleCounts {
         self.bounce_rays += o.bounce_rays;
         self.spherical_samples += o.spherical_samples;
         self.area_samples += o.area_samples;
+        self.surface_hits += o.surface_hits;
     }
 }
 
@@ -118,6 +121,8 @@ impl Estimator<'_> {
         let Some(hit) = self.accel.closest_hit(origin, dir, f32::INFINITY) else {
             return self.environment_radiance(dir);
         };
+        let tri = &self.scene.triangles[hit.triangle as usize];
+        counts.surface_hits += !self.scene.materials[tri.material as usize].is_emissive() as u64;
         let wo = -dir;
         let emitted = self.emission_at(&hit, wo);
         let x = self.shading_point(&hit, wo);

@@ -121,13 +121,15 @@ fn render_tile(
                 let cs = pixel_sampler.camera_sample(s);
                 let [jx, jy] = cs.pixel_jitter();
                 let dir = camera.direction(x as f32 + jx, y as f32 + jy, w, h);
+                let surface_hits = stats.rays.surface_hits;
                 let l = estimator.radiance(camera.position, dir, &cs, &mut stats.rays);
                 stats.camera_samples += 1;
                 match classify(l) {
                     SampleClass::Finite => {
                         luminances.push(luminance(l));
                         let l = opts.clamp.map_or(l, |c| l.min(Vec3::splat(c)));
-                        pixel.add(l.as_dvec3())
+                        pixel.add(l.as_dvec3());
+                        pixel.surface += stats.rays.surface_hits - surface_hits;
                     }
                     SampleClass::Nan => stats.nan_samples += 1,
                     SampleClass::Infinite => stats.inf_samples += 1,

@@ -1,17 +1,24 @@
 //! Benchmark grids: every configuration (selector × strategy × K×N × sampler × spp) rendered R
 //! times with
 //! different seeds, at equal spp or at an equal time budget, and measured against a reference:
-//!     MSE, relMSE                 (see `metrics`), mean over repeats, with a 95% interval of
-//!                                 the MSE across seeds: mean ± 1.96·sd/√R (R ≥ 2)
+//!     MSE, relMSE                 (see `metrics`), mean over repeats, with a 95% interval
+//!                                 across seeds: mean ± t₀.₉₇₅,R−1·sd/√R (R ≥ 2); over all
+//!                                 pixels and over lit-surface pixels, raw and corrected for
+//!                                 the reference's noise (see `errors`)
 //!     variance                    mean over pixels and channels of s²/n (no reference needed)
 //!     efficiency                  1 / (relMSE × seconds), and 1 / (variance × seconds)
-//! with seconds the median render time over repeats.
+//! with seconds the median render time over repeats. A configuration is flagged heavy-tailed
+//! when its MSE (all or lit pixels) does not fall from one spp to the next, or one pixel holds
+//! more than `WORST_PIXEL_SHARE_FLAG` of the squared error (lit pixels when known). Images
+//! rendered elsewhere enter as external rows measured the same way.
 
+use std::path::PathBuf;
 use std::time::Instant;
 
 use serde::Serialize;
 
-use super::fit::{cost_to_target, TargetCost};
+use super::errors::{not_falling, Against, ErrorAccumulator, Errors, WORST_PIXEL_SHARE_FLAG};
+use super::fit::{cost_to_target, TargetCost, TargetPoint};
 use super::metrics::compare;
 use super::progressive::{render_progressive, Budget};
 use super::{mean_image, mean_variance, EstimatorChoice, SceneSetup};
@@ -56,6 +63,12 @@ pub struct BenchRow {
     /// 95% interval of the MSE across seeds (None when R = 1).
     pub mse_interval: Option<[f64; 2]>,
     pub relmse: f64,
+    /// 95% interval of the relMSE across seeds (None when R = 1).
+    pub relmse_interval: Option<[f64; 2]>,
+    /// Over all pixels and over lit-surface pixels, raw and corrected for the reference's noise.
+    pub errors: Errors,
+    /// Why the configuration looks heavy-tailed (None: no sign of it).
+    pub heavy_tail: Option<String>,
     /// Mean over pixels and channels of the estimated variance of the pixel mean (None at
     /// 1 spp: one sample has no sample variance).
     pub variance: Option<f64>,
@@ -144,8 +157,6 @@ struct Run {
     seconds: f64,
     spp: u32,
     rays: u64,
-    mse: f64,
-    relmse: f64,
     variance: f64,
     nan: u64,
     inf: u64,
@@ -158,7 +169,7 @@ struct Run {
 /// configuration as it finishes. Ratios are filled in by [`apply_baseline`].
 pub fn run(
     setup: &SceneSetup,
-    reference: &RgbImage,
+    against: &Against,
     plan: &BenchPlan,
     mut on_row: impl FnMut(&BenchRow),
 ) -> Vec<BenchRow> {
@@ -180,6 +191,7 @@ pub fn run(
                 .estimator(e.strategy, e.k, e.n)
                 .with_candidates(e.m);
             for &spp in &spps {
+                let mut errors = ErrorAccumulator::new(against.mean.pixels.len());
                 let runs: Vec<Run> = (0..plan.repeat.max(1))
                     .map(|r| {
                         let opts = RenderOptions {
@@ -210,14 +222,11 @@ pub fn run(
                             }
                         };
                         let image = mean_image(&film);
-                        let err =
-                            compare(&image, reference).expect("reference has the image's size");
+                        errors.add(&image, against);
                         Run {
                             seconds,
                             spp,
                             rays: stats.rays.total_rays(),
-                            mse: err.mse,
-                            relmse: err.relmse,
                             variance: mean_variance(&film),
                             nan: stats.nan_samples,
                             inf: stats.inf_samples,
@@ -227,7 +236,7 @@ pub fn run(
                         }
                     })
                     .collect();
-                let row = aggregate(*e, plan, runs);
+                let row = aggregate(*e, plan, runs, errors.finish(against));
                 on_row(&row);
                 rows.push(row);
             }
@@ -236,21 +245,16 @@ pub fn run(
     rows
 }
 
-fn aggregate(e: EstimatorChoice, plan: &BenchPlan, runs: Vec<Run>) -> BenchRow {
+fn aggregate(e: EstimatorChoice, plan: &BenchPlan, runs: Vec<Run>, errors: Errors) -> BenchRow {
     let r = runs.len() as f64;
     let mean = |f: fn(&Run) -> f64| runs.iter().map(f).sum::<f64>() / r;
     let mut secs: Vec<f64> = runs.iter().map(|x| x.seconds).collect();
     let seconds = median(&mut secs);
     let mut spps: Vec<f64> = runs.iter().map(|x| x.spp as f64).collect();
     let spp = median(&mut spps).round() as u32;
-    let mse = mean(|x| x.mse);
-    let relmse = mean(|x| x.relmse);
+    let (mse, mse_interval) = (errors.all.mse, errors.all.mse_interval);
+    let (relmse, relmse_interval) = (errors.all.relmse, errors.all.relmse_interval);
     let variance = (spp >= 2).then(|| mean(|x| x.variance));
-    let mse_interval = (runs.len() >= 2).then(|| {
-        let sd = (runs.iter().map(|x| (x.mse - mse).powi(2)).sum::<f64>() / (r - 1.0)).sqrt();
-        let half = 1.96 * sd / r.sqrt();
-        [mse - half, mse + half]
-    });
     BenchRow {
         selector: e.selector,
         strategy: e.strategy,
@@ -266,6 +270,9 @@ fn aggregate(e: EstimatorChoice, plan: &BenchPlan, runs: Vec<Run>) -> BenchRow {
         mse,
         mse_interval,
         relmse,
+        relmse_interval,
+        errors,
+        heavy_tail: None,
         variance,
         efficiency: 1.0 / (relmse * seconds),
         efficiency_variance: variance.map(|v| 1.0 / (v * seconds)),
@@ -339,6 +346,40 @@ pub fn apply_baseline(rows: &mut [BenchRow], baseline: Option<&str>) -> Result<(
     Ok(())
 }
 
+/// Marks heavy-tailed configurations: MSE over all or over lit-surface pixels that does not
+/// fall from one spp to the next larger, or one pixel holding more than
+/// [`WORST_PIXEL_SHARE_FLAG`] of the squared error (over lit-surface pixels when known).
+pub fn flag_heavy_tails(rows: &mut [BenchRow]) {
+    for i in 0..rows.len() {
+        let mut reasons = Vec::new();
+        let e = &rows[i].errors;
+        let region = e.lit.as_ref().unwrap_or(&e.all);
+        if region.worst_pixel_share > WORST_PIXEL_SHARE_FLAG {
+            reasons.push(format!(
+                "one pixel holds {:.0}% of the {} squared error",
+                100.0 * region.worst_pixel_share,
+                if e.lit.is_some() {
+                    "lit-surface"
+                } else {
+                    "image's"
+                }
+            ));
+        }
+        // This row and the same configuration at the next larger spp.
+        let next = rows
+            .iter()
+            .filter(|r| r.estimator() == rows[i].estimator() && r.spp > rows[i].spp)
+            .min_by_key(|r| r.spp);
+        let point = |r: &BenchRow| (r.spp, r.mse, r.errors.lit.as_ref().map(|l| l.mse));
+        if let Some(next) = next {
+            reasons.extend(not_falling(&[point(&rows[i]), point(next)]));
+        }
+        if !reasons.is_empty() {
+            rows[i].heavy_tail = Some(reasons.join("; "));
+        }
+    }
+}
+
 /// What one estimator configuration needs to reach a target relMSE.
 #[derive(Clone, Debug, Serialize)]
 pub struct TargetAnswer {
@@ -349,8 +390,10 @@ pub struct TargetAnswer {
 }
 
 /// For each estimator configuration, the spp and seconds to reach `target` relMSE, fitted
-/// over its rows (see [`cost_to_target`]); sorted cheapest first, unreachable last.
-pub fn target_answers(rows: &[BenchRow], target: f64) -> Vec<TargetAnswer> {
+/// over its rows (see [`cost_to_target`]) on lit-surface relMSE when `lit` (and every row has
+/// it), else over all pixels; sorted by point estimate, then refused ones by their interval's
+/// upper end, unreachable last.
+pub fn target_answers(rows: &[BenchRow], target: f64, lit: bool) -> Vec<TargetAnswer> {
     let mut configs: Vec<EstimatorChoice> = Vec::new();
     for r in rows {
         if !configs.contains(&r.estimator()) {
@@ -360,22 +403,145 @@ pub fn target_answers(rows: &[BenchRow], target: f64) -> Vec<TargetAnswer> {
     let mut answers: Vec<TargetAnswer> = configs
         .iter()
         .map(|e| {
-            let points: Vec<(f64, f64, f64)> = rows
+            let mine: Vec<&BenchRow> = rows.iter().filter(|r| r.estimator() == *e).collect();
+            let points: Vec<TargetPoint> = mine
                 .iter()
-                .filter(|r| r.estimator() == *e)
-                .map(|r| (r.spp as f64, r.relmse, r.seconds))
+                .map(|r| {
+                    let region = r
+                        .errors
+                        .lit
+                        .as_ref()
+                        .filter(|_| lit)
+                        .unwrap_or(&r.errors.all);
+                    TargetPoint {
+                        spp: r.spp as f64,
+                        relmse: region.relmse,
+                        relmse_interval: region.relmse_interval,
+                        seconds: r.seconds,
+                    }
+                })
                 .collect();
+            let heavy = mine.iter().find_map(|r| r.heavy_tail.as_deref());
             TargetAnswer {
                 config: estimator_label(e),
-                cost: cost_to_target(&points, target),
+                cost: cost_to_target(&points, target, heavy),
             }
         })
         .collect();
     answers.sort_by(|a, b| {
-        let s = |t: &TargetAnswer| t.cost.map_or(f64::INFINITY, |c| c.seconds);
-        s(a).total_cmp(&s(b))
+        let key = |t: &TargetAnswer| match &t.cost {
+            Some(c) => match c.seconds {
+                Some(s) => (0, s),
+                None if c.seconds_interval[1].is_finite() => (1, c.seconds_interval[1]),
+                None => (2, 0.0),
+            },
+            None => (3, 0.0),
+        };
+        let (ka, kb) = (key(a), key(b));
+        ka.0.cmp(&kb.0).then(ka.1.total_cmp(&kb.1))
     });
     answers
+}
+
+/// An image rendered elsewhere, measured against the same reference: `NAME=IMAGE.exr` with the
+/// seconds and spp its author claims, when given.
+#[derive(Clone, Debug, Serialize)]
+pub struct ExternalRow {
+    pub name: String,
+    pub path: PathBuf,
+    /// Always true: marks the row in JSON.
+    pub external: bool,
+    /// The user's claim, not measured here.
+    pub seconds: Option<f64>,
+    pub spp: Option<u32>,
+    pub mse: f64,
+    pub relmse: f64,
+    pub max_abs: f64,
+    pub psnr: f64,
+    /// 1 / (relMSE × seconds) when seconds are given.
+    pub efficiency: Option<f64>,
+    pub errors: Errors,
+    /// One pixel holding more than the flag's share of the squared error.
+    pub heavy_tail: Option<String>,
+    #[serde(skip)]
+    pub image: RgbImage,
+}
+
+/// Measures an external image (of the reference's size) the way bench rows are measured.
+pub fn external_row(
+    name: &str,
+    path: PathBuf,
+    image: RgbImage,
+    seconds: Option<f64>,
+    spp: Option<u32>,
+    against: &Against,
+) -> ExternalRow {
+    let mut acc = ErrorAccumulator::new(image.pixels.len());
+    acc.add(&image, against);
+    let errors = acc.finish(against);
+    let raw = compare(&image, against.mean).expect("external image has the reference's size");
+    let region = errors.lit.as_ref().unwrap_or(&errors.all);
+    let heavy_tail = (region.worst_pixel_share > WORST_PIXEL_SHARE_FLAG).then(|| {
+        format!(
+            "one pixel holds {:.0}% of the squared error",
+            100.0 * region.worst_pixel_share
+        )
+    });
+    ExternalRow {
+        name: name.into(),
+        path,
+        external: true,
+        seconds,
+        spp,
+        mse: errors.all.mse,
+        relmse: errors.all.relmse,
+        max_abs: raw.max_abs,
+        psnr: raw.psnr,
+        efficiency: seconds.map(|s| 1.0 / (errors.all.relmse * s)),
+        errors,
+        heavy_tail,
+        image,
+    }
+}
+
+/// A row of a bench report: measured here or external.
+#[derive(Clone, Copy, Debug, Serialize)]
+#[serde(untagged)]
+pub enum ReportRow<'a> {
+    Bench(&'a BenchRow),
+    External(&'a ExternalRow),
+}
+
+impl ReportRow<'_> {
+    /// The configuration label, or `external:NAME`.
+    pub fn label(&self) -> String {
+        match self {
+            ReportRow::Bench(r) => estimator_label(&r.estimator()),
+            ReportRow::External(x) => format!("external:{}", x.name),
+        }
+    }
+
+    pub fn errors(&self) -> &Errors {
+        match self {
+            ReportRow::Bench(r) => &r.errors,
+            ReportRow::External(x) => &x.errors,
+        }
+    }
+
+    pub fn seconds(&self) -> Option<f64> {
+        match self {
+            ReportRow::Bench(r) => Some(r.seconds),
+            ReportRow::External(x) => x.seconds,
+        }
+    }
+}
+
+/// Every row for the reports: bench rows first, then external ones.
+pub fn report_rows<'a>(rows: &'a [BenchRow], external: &'a [ExternalRow]) -> Vec<ReportRow<'a>> {
+    rows.iter()
+        .map(ReportRow::Bench)
+        .chain(external.iter().map(ReportRow::External))
+        .collect()
 }
 
 #[cfg(test)]

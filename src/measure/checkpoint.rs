@@ -30,9 +30,9 @@ use crate::film::{Film, PixelStats};
 use crate::image::write_atomically;
 use crate::integrator::RenderStats;
 
-const MAGIC: &[u8; 8] = b"MLCKPT01";
-/// Bytes of one pixel record: count, mean (3 × f64), M2 (3 × f64).
-const PIXEL_BYTES: u64 = 56;
+const MAGIC: &[u8; 8] = b"MLCKPT02";
+/// Bytes of one pixel record: count, mean (3 × f64), M2 (3 × f64), surface-hit count.
+const PIXEL_BYTES: u64 = 64;
 /// A header longer than this is not one this program wrote.
 const MAX_HEADER_BYTES: u64 = 1 << 20;
 
@@ -96,8 +96,9 @@ pub fn write_checkpoint(
         for px in &p.film.pixels {
             let mut record = [0u8; PIXEL_BYTES as usize];
             record[..8].copy_from_slice(&px.count.to_le_bytes());
+            record[56..].copy_from_slice(&px.surface.to_le_bytes());
             let values = px.mean.to_array().into_iter().chain(px.m2.to_array());
-            for (slot, v) in record[8..].chunks_exact_mut(8).zip(values) {
+            for (slot, v) in record[8..56].chunks_exact_mut(8).zip(values) {
                 slot.copy_from_slice(&v.to_bits().to_le_bytes());
             }
             put(&record)?;
@@ -170,6 +171,7 @@ pub fn read_checkpoint(path: &Path) -> anyhow::Result<(CheckpointHeader, Progres
             count: word(r, 0),
             mean: DVec3::new(f(r, 1), f(r, 2), f(r, 3)),
             m2: DVec3::new(f(r, 4), f(r, 5), f(r, 6)),
+            surface: word(r, 7),
         })
         .collect();
     let stats = RenderStats {

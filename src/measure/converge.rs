@@ -10,11 +10,14 @@
 //!                   samplers s²/n overestimates the variance of the mean, so the check is
 //!                   conservative);
 //!   (c) finite:     no NaN or Inf sample and finite errors.
+//! Beside the checks: per spp the MSE over lit-surface pixels and both corrected for the
+//! reference's noise (see `errors`), the lit-surface slope with its 95% interval, and a
+//! heavy-tail flag when the mean MSE (all or lit) does not fall from one spp to the next.
 
 use serde::Serialize;
 
+use super::errors::{not_falling, Against, ErrorAccumulator, Errors};
 use super::fit::fit_loglog;
-use super::metrics::compare;
 use super::reference::Reference;
 use super::{mean_image, EstimatorChoice, SceneSetup};
 use crate::integrator::{render, PreparedScene, RenderOptions};
@@ -43,6 +46,10 @@ pub struct Level {
     pub spp: u32,
     pub mse: Vec<f64>,
     pub mse_mean: f64,
+    /// Per seed, the MSE over lit-surface pixels (empty without a mask).
+    pub lit_mse: Vec<f64>,
+    /// All figures over the seeds: all and lit pixels, raw and corrected.
+    pub errors: Errors,
 }
 
 /// One check's verdict.
@@ -64,6 +71,11 @@ pub struct ConvergeReport {
     pub slope: f64,
     /// Its 95% interval.
     pub slope_interval: [f64; 2],
+    /// The same over lit-surface pixels (None without a mask).
+    pub lit_slope: Option<f64>,
+    pub lit_slope_interval: Option<[f64; 2]>,
+    /// Why the series looks heavy-tailed (None: no sign of it).
+    pub heavy_tail: Option<String>,
     /// Per channel at the largest spp: mean over seeds of mean(render) − mean(reference).
     pub mean_error: [f64; 3],
     /// Per channel: the standard deviation σ of that mean error.
@@ -75,7 +87,17 @@ pub struct ConvergeReport {
 }
 
 /// Runs the renders and the three checks against `reference` (same size as the setup).
-pub fn run(setup: &SceneSetup, reference: &Reference, opts: &ConvergeOptions) -> ConvergeReport {
+pub fn run(
+    setup: &SceneSetup,
+    reference: &Reference,
+    lit: Option<&[bool]>,
+    opts: &ConvergeOptions,
+) -> ConvergeReport {
+    let against = Against {
+        mean: &reference.mean,
+        variance: reference.variance.as_ref(),
+        lit,
+    };
     let e = opts.estimator;
     let prepared = PreparedScene::new(setup.scene.clone(), e.selector);
     let estimator = prepared
@@ -89,11 +111,14 @@ pub fn run(setup: &SceneSetup, reference: &Reference, opts: &ConvergeOptions) ->
     let (mut nan, mut inf) = (0, 0);
     let mut levels = Vec::new();
     let (mut xs, mut ys) = (Vec::new(), Vec::new());
+    let mut lit_ys = Vec::new();
     // Sums over seeds at the largest spp: image-mean error and Σₚ Var[renderₚ], per channel.
     let mut err_sum = [0.0f64; 3];
     let mut var_sum = [0.0f64; 3];
     for (level, &spp) in spps.iter().enumerate() {
         let mut mse = Vec::new();
+        let mut lit_mse = Vec::new();
+        let mut acc = ErrorAccumulator::new(reference.mean.pixels.len());
         for s in 0..opts.seeds.max(1) {
             let film_opts = RenderOptions {
                 width: setup.width,
@@ -108,12 +133,15 @@ pub fn run(setup: &SceneSetup, reference: &Reference, opts: &ConvergeOptions) ->
             nan += stats.nan_samples;
             inf += stats.inf_samples;
             let image = mean_image(&film);
-            let m = compare(&image, &reference.mean)
-                .expect("reference has the image's size")
-                .mse;
+            let figures = acc.add(&image, &against);
+            let m = figures.all.0;
             mse.push(m);
             xs.push(spp as f64);
             ys.push(m);
+            if let Some((l, _)) = figures.lit {
+                lit_mse.push(l);
+                lit_ys.push(l);
+            }
             if spp == max_spp {
                 for (x, r) in film.pixels.iter().zip(&reference.mean.pixels) {
                     let v = x.variance_of_mean();
@@ -125,7 +153,13 @@ pub fn run(setup: &SceneSetup, reference: &Reference, opts: &ConvergeOptions) ->
             }
         }
         let mse_mean = mse.iter().sum::<f64>() / mse.len() as f64;
-        levels.push(Level { spp, mse, mse_mean });
+        levels.push(Level {
+            spp,
+            mse,
+            mse_mean,
+            lit_mse,
+            errors: acc.finish(&against),
+        });
     }
 
     let seeds = opts.seeds.max(1) as f64;
@@ -141,6 +175,10 @@ pub fn run(setup: &SceneSetup, reference: &Reference, opts: &ConvergeOptions) ->
     }
 
     let fit = fit_loglog(&xs, &ys);
+    let lit_fit = (lit_ys.len() == xs.len())
+        .then(|| fit_loglog(&xs, &lit_ys))
+        .flatten();
+    let heavy_tail = heavy_tail(&levels);
     let (slope, slope_interval) =
         fit.map_or((f64::NAN, [f64::NAN; 2]), |f| (f.slope, f.slope_interval));
     let independent = e.sampler == SamplerKind::Independent;
@@ -191,6 +229,9 @@ pub fn run(setup: &SceneSetup, reference: &Reference, opts: &ConvergeOptions) ->
         levels,
         slope,
         slope_interval,
+        lit_slope: lit_fit.map(|f| f.slope),
+        lit_slope_interval: lit_fit.map(|f| f.slope_interval),
+        heavy_tail,
         mean_error,
         mean_error_sigma: sigma,
         nan_samples: nan,
@@ -198,4 +239,14 @@ pub fn run(setup: &SceneSetup, reference: &Reference, opts: &ConvergeOptions) ->
         passed: checks.iter().all(|c| c.passed),
         checks,
     }
+}
+
+/// Why a series of levels (sorted by spp) looks heavy-tailed (see [`not_falling`]).
+fn heavy_tail(levels: &[Level]) -> Option<String> {
+    let series: Vec<(u32, f64, Option<f64>)> = levels
+        .iter()
+        .map(|l| (l.spp, l.mse_mean, l.errors.lit.as_ref().map(|e| e.mse)))
+        .collect();
+    let reasons = not_falling(&series);
+    (!reasons.is_empty()).then(|| reasons.join("; "))
 }

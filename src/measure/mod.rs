@@ -4,7 +4,9 @@
 pub mod bench;
 pub mod checkpoint;
 pub mod converge;
+pub mod errors;
 pub mod fit;
+pub mod mask;
 pub mod metrics;
 pub mod plot;
 pub mod progressive;

@@ -1,91 +1,57 @@
 //! Pictures of a bench: relMSE against seconds (log-log SVG, one line per configuration over
-//! its spp values) and false-colour PNGs of the per-pixel relative squared error
+//! its spp values, error bars of the 95% interval across repeats, a panel for all pixels and
+//! one for lit-surface pixels) and false-colour PNGs of the per-pixel relative squared error
 //! (x − r)² / (r² + 1e-2), averaged over channels.
 
 use anyhow::anyhow;
 use plotters::prelude::*;
 
-use super::bench::{estimator_label, BenchRow};
+use super::bench::ReportRow;
+use super::errors::RegionErrors;
 use super::metrics::REL_MSE_EPSILON;
 use crate::image::{write_atomically, write_rgb8, RgbImage};
 
-/// Writes the relMSE-versus-seconds plot of `rows` as SVG, atomically.
+/// One point of a plot: seconds, relMSE and its 95% interval across repeats.
+type PlotPoint = (f64, f64, Option<[f64; 2]>);
+
+/// Writes the relMSE-versus-seconds plot of `rows` as SVG, atomically: one panel over all
+/// pixels and, when the rows have lit-surface figures, a second over lit-surface pixels; each
+/// point with its 95% interval across repeats as an error bar. External rows (with seconds)
+/// are drawn as unconnected squares.
 pub fn plot_relmse_vs_seconds(
     path: &std::path::Path,
-    rows: &[BenchRow],
+    rows: &[ReportRow],
     title: &str,
 ) -> anyhow::Result<()> {
-    let usable: Vec<&BenchRow> = rows
-        .iter()
-        .filter(|r| r.relmse > 0.0 && r.seconds > 0.0 && r.relmse.is_finite())
-        .collect();
-    if usable.is_empty() {
+    let panels: Vec<(&str, Series)> = [
+        (
+            "relMSE, all pixels",
+            series(rows, |r| Some(&r.errors().all)),
+        ),
+        (
+            "relMSE, lit-surface pixels",
+            series(rows, |r| r.errors().lit.as_ref()),
+        ),
+    ]
+    .into_iter()
+    .filter(|(_, s)| !s.is_empty())
+    .collect();
+    if panels.is_empty() {
         anyhow::bail!("nothing to plot: no configuration has a positive relMSE and time");
-    }
-    let (mut x0, mut x1, mut y0, mut y1) = (f64::INFINITY, 0.0f64, f64::INFINITY, 0.0f64);
-    for r in &usable {
-        x0 = x0.min(r.seconds);
-        x1 = x1.max(r.seconds);
-        y0 = y0.min(r.relmse);
-        y1 = y1.max(r.relmse);
-    }
-    // Half a decade of margin on each side, so single points are not on the frame.
-    let pad = 10f64.powf(0.25);
-    let (x0, x1, y0, y1) = (x0 / pad, x1 * pad, y0 / pad, y1 * pad);
-
-    let mut configs = Vec::new();
-    for r in &usable {
-        let label = estimator_label(&r.estimator());
-        if !configs.contains(&label) {
-            configs.push(label);
-        }
     }
     let mut svg = String::new();
     {
-        let root = SVGBackend::with_string(&mut svg, (900, 600)).into_drawing_area();
+        let width = 900 * panels.len() as u32;
+        let root = SVGBackend::with_string(&mut svg, (width, 600)).into_drawing_area();
         let err = |e: &dyn std::fmt::Display| anyhow!("plot: {e}");
         root.fill(&WHITE).map_err(|e| err(&e))?;
-        let mut chart = ChartBuilder::on(&root)
-            .caption(title, ("sans-serif", 22))
-            .margin(12)
-            .x_label_area_size(48)
-            .y_label_area_size(72)
-            .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
+        let root = root
+            .titled(title, ("sans-serif", 22))
             .map_err(|e| err(&e))?;
-        chart
-            .configure_mesh()
-            .x_desc("render time (seconds)")
-            .y_desc("relMSE")
-            .x_label_formatter(&|v| format!("{v:.1e}"))
-            .y_label_formatter(&|v| format!("{v:.1e}"))
-            .draw()
-            .map_err(|e| err(&e))?;
-        for (i, label) in configs.iter().enumerate() {
-            let colour = Palette99::pick(i).to_rgba();
-            let mut points: Vec<(f64, f64)> = usable
-                .iter()
-                .filter(|r| estimator_label(&r.estimator()) == *label)
-                .map(|r| (r.seconds, r.relmse))
-                .collect();
-            points.sort_by(|a, b| a.0.total_cmp(&b.0));
-            chart
-                .draw_series(LineSeries::new(points.clone(), colour.stroke_width(2)))
-                .map_err(|e| err(&e))?
-                .label(label.as_str())
-                .legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
-                });
-            chart
-                .draw_series(points.iter().map(|&p| Circle::new(p, 4, colour.filled())))
-                .map_err(|e| err(&e))?;
+        let areas = root.split_evenly((1, panels.len()));
+        for (area, (y_desc, lines)) in areas.iter().zip(&panels) {
+            draw_panel(area, y_desc, lines).map_err(|e| err(&e))?;
         }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .position(SeriesLabelPosition::UpperRight)
-            .draw()
-            .map_err(|e| err(&e))?;
         root.present().map_err(|e| err(&e))?;
     }
     write_atomically(path, |w| {
@@ -93,6 +59,99 @@ pub fn plot_relmse_vs_seconds(
         w.write_all(svg.as_bytes())?;
         Ok(())
     })
+}
+
+/// Labelled lines of points (label, external, points sorted by seconds).
+type Series = Vec<(String, bool, Vec<PlotPoint>)>;
+
+fn series<'a>(
+    rows: &'a [ReportRow<'a>],
+    region: fn(&'a ReportRow<'a>) -> Option<&'a RegionErrors>,
+) -> Series {
+    let mut out: Series = Vec::new();
+    for r in rows {
+        let (Some(seconds), Some(e)) = (r.seconds(), region(r)) else {
+            continue;
+        };
+        if !(e.relmse > 0.0 && e.relmse.is_finite() && seconds > 0.0) {
+            continue;
+        }
+        let label = r.label();
+        let point = (seconds, e.relmse, e.relmse_interval);
+        match out.iter_mut().find(|s| s.0 == label) {
+            Some(s) => s.2.push(point),
+            None => out.push((label, matches!(r, ReportRow::External(_)), vec![point])),
+        }
+    }
+    for s in &mut out {
+        s.2.sort_by(|a, b| a.0.total_cmp(&b.0));
+    }
+    out
+}
+
+fn draw_panel<DB: DrawingBackend>(
+    area: &DrawingArea<DB, plotters::coord::Shift>,
+    y_desc: &str,
+    lines: &Series,
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    let (mut x0, mut x1, mut y0, mut y1) = (f64::INFINITY, 0.0f64, f64::INFINITY, 0.0f64);
+    for &(x, y, interval) in lines.iter().flat_map(|l| &l.2) {
+        let [lo, hi] = interval.filter(|i| i[0] > 0.0).unwrap_or([y, y]);
+        x0 = x0.min(x);
+        x1 = x1.max(x);
+        y0 = y0.min(lo);
+        y1 = y1.max(hi);
+    }
+    // Half a decade of margin on each side, so single points are not on the frame.
+    let pad = 10f64.powf(0.25);
+    let (x0, x1, y0, y1) = (x0 / pad, x1 * pad, y0 / pad, y1 * pad);
+    let mut chart = ChartBuilder::on(area)
+        .margin(12)
+        .x_label_area_size(48)
+        .y_label_area_size(72)
+        .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())?;
+    chart
+        .configure_mesh()
+        .x_desc("render time (seconds)")
+        .y_desc(y_desc)
+        .x_label_formatter(&|v| format!("{v:.1e}"))
+        .y_label_formatter(&|v| format!("{v:.1e}"))
+        .draw()?;
+    for (i, (label, external, points)) in lines.iter().enumerate() {
+        let colour = Palette99::pick(i).to_rgba();
+        let xy: Vec<(f64, f64)> = points.iter().map(|p| (p.0, p.1)).collect();
+        if *external {
+            chart
+                .draw_series(xy.iter().map(|&(x, y)| {
+                    EmptyElement::at((x, y)) + Rectangle::new([(-5, -5), (5, 5)], colour.filled())
+                }))?
+                .label(label.as_str())
+                .legend(move |(x, y)| {
+                    Rectangle::new([(x + 5, y - 5), (x + 15, y + 5)], colour.filled())
+                });
+        } else {
+            chart
+                .draw_series(LineSeries::new(xy.clone(), colour.stroke_width(2)))?
+                .label(label.as_str())
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
+                });
+            chart.draw_series(xy.iter().map(|&p| Circle::new(p, 4, colour.filled())))?;
+        }
+        chart.draw_series(points.iter().filter_map(|&(x, _, interval)| {
+            let [lo, hi] = interval?;
+            Some(PathElement::new(
+                vec![(x, lo.max(y0)), (x, hi.min(y1))],
+                colour.stroke_width(1),
+            ))
+        }))?;
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperRight)
+        .draw()
 }
 
 /// Per-pixel relative squared error, averaged over channels.

@@ -1,5 +1,6 @@
 //! References: high-spp renders with the lowest-variance estimator, rendered progressively,
-//! written as EXR (mean + variance of the mean) with a JSON sidecar `<file>.json` recording the
+//! written as EXR (mean, variance of the mean, and the `surface` channel: per pixel, the
+//! fraction of primary rays that hit a surface without emission, see `mask`) with a JSON sidecar `<file>.json` recording the
 //! scene's content hash, the options, spp, seconds and the reference's own estimated relMSE,
 //!     relMSE_ref ≈ mean over pixels and channels of Var[ref] / (ref² + 1e-2),
 //! and found again in a cache folder next to the scene when hash and options match.
@@ -13,7 +14,9 @@ use serde::{Deserialize, Serialize};
 use super::metrics::REL_MSE_EPSILON;
 use super::progressive::{resume_progressive, Budget, Flow, PassCount, Progressive};
 use super::{fnv1a64, mean_image, EstimatorChoice, SceneSetup};
-use crate::image::{check_samples, read_exr_rgb, write_atomically, write_exr, RgbImage};
+use crate::image::{
+    check_samples, read_exr_layers, write_atomically, write_exr_with_surface, RgbImage,
+};
 use crate::integrator::{PreparedScene, RenderOptions, Strategy};
 use crate::sampling::sampler::SamplerKind;
 use crate::select::SelectorKind;
@@ -78,6 +81,9 @@ pub struct Reference {
     pub path: PathBuf,
     pub mean: RgbImage,
     pub variance: Option<RgbImage>,
+    /// Per pixel, the fraction of primary rays that hit a surface without emission (None for
+    /// a file written before references carried it, or by another program).
+    pub surface: Option<Vec<f32>>,
     pub meta: Option<ReferenceMeta>,
 }
 
@@ -174,6 +180,7 @@ pub fn finish_reference(
         height: mean.height,
         pixels: p.film.variance_of_mean_rgb(),
     };
+    let surface = p.film.surface_fractions();
     let meta = ReferenceMeta {
         scene: setup.path.clone(),
         scene_hash: format!("{:016x}", setup.hash),
@@ -189,16 +196,18 @@ pub fn finish_reference(
         path: path.into(),
         mean,
         variance: Some(variance),
+        surface: Some(surface),
         meta: Some(meta),
     }
 }
 
 /// Writes the EXR (mean and variance layer) and then its sidecar, each atomically.
 pub fn write_reference(reference: &Reference) -> anyhow::Result<()> {
-    write_exr(
+    write_exr_with_surface(
         &reference.path,
         &reference.mean,
         reference.variance.as_ref(),
+        reference.surface.as_deref(),
     )?;
     if let Some(meta) = &reference.meta {
         write_atomically(&sidecar_path(&reference.path), |w| {
@@ -214,29 +223,47 @@ pub fn write_reference(reference: &Reference) -> anyhow::Result<()> {
 /// or a variance that is not finite and ≥ 0 (the renderer writes neither; an error measured
 /// against one would be NaN), naming the pixel.
 pub fn read_reference(path: &Path) -> anyhow::Result<Reference> {
-    let (mean, variance) = read_exr_rgb(path)?;
+    let mut reference = read_reference_layers(path)?;
+    let sidecar = sidecar_path(path);
+    if sidecar.exists() {
+        let text = std::fs::read_to_string(&sidecar)
+            .with_context(|| format!("cannot read {}", sidecar.display()))?;
+        reference.meta = Some(
+            serde_json::from_str(&text)
+                .with_context(|| format!("{}: not a reference sidecar", sidecar.display()))?,
+        );
+    }
+    Ok(reference)
+}
+
+/// As [`read_reference`], without looking for the sidecar (`meta` is None).
+pub fn read_reference_layers(path: &Path) -> anyhow::Result<Reference> {
+    let layers = read_exr_layers(path)?;
+    let (mean, variance, surface) = (layers.mean, layers.variance, layers.surface);
     check_samples(&mean, path, "mean", "a finite value", f32::is_finite)?;
     if let Some(v) = &variance {
         check_samples(v, path, "variance", "a finite value ≥ 0", |x| {
             x.is_finite() && x >= 0.0
         })?;
     }
-    let sidecar = sidecar_path(path);
-    let meta = if sidecar.exists() {
-        let text = std::fs::read_to_string(&sidecar)
-            .with_context(|| format!("cannot read {}", sidecar.display()))?;
-        Some(
-            serde_json::from_str(&text)
-                .with_context(|| format!("{}: not a reference sidecar", sidecar.display()))?,
-        )
-    } else {
-        None
-    };
+    if let Some(bad) = surface
+        .as_ref()
+        .and_then(|s| s.iter().position(|f| !(0.0..=1.0).contains(f)))
+    {
+        anyhow::bail!(
+            "{}: surface channel at pixel ({}, {}) is {}, not a fraction in [0, 1]",
+            path.display(),
+            bad % mean.width.max(1),
+            bad / mean.width.max(1),
+            surface.as_ref().map_or(0.0, |s| s[bad])
+        );
+    }
     Ok(Reference {
         path: path.into(),
         mean,
         variance,
-        meta,
+        surface,
+        meta: None,
     })
 }
 

@@ -1,61 +1,148 @@
-//! Bench reports: an aligned text table, CSV, Markdown and JSON of the rows, each file written
-//! atomically.
+//! Bench reports: an aligned text table (the main columns), CSV and Markdown (every column) and
+//! JSON of the rows, external ones included, each file written atomically. Columns: errors over
+//! all pixels and over lit-surface pixels (`lit …`), raw and minus the reference's variance
+//! (`…-Var[ref]`, see `errors`), with 95% intervals.
 
 use std::fmt::Write as _;
 use std::io::Write;
 use std::path::Path;
 
-use super::bench::BenchRow;
+use super::bench::ReportRow;
 use crate::image::write_atomically;
 
-/// Column headers and one row's cells, shared by the table, CSV and Markdown.
-const HEADERS: [&str; 18] = [
-    "config",
-    "spp",
-    "seconds",
-    "s min",
-    "s max",
-    "Mrays",
-    "MSE",
-    "MSE 95% lo",
-    "MSE 95% hi",
-    "relMSE",
-    "variance",
-    "eff 1/(relMSE s)",
-    "eff 1/(var s)",
-    "MSE ratio",
-    "eff ratio",
-    "fireflies",
-    "max sample",
-    "biased",
+/// Column headers and one row's cells, shared by the table, CSV and Markdown; the table
+/// shows only the columns marked for it.
+const HEADERS: [(&str, bool); 31] = [
+    ("config", true),
+    ("spp", true),
+    ("seconds", true),
+    ("s min", false),
+    ("s max", false),
+    ("Mrays", false),
+    ("MSE", true),
+    ("MSE 95% lo", false),
+    ("MSE 95% hi", false),
+    ("relMSE", true),
+    ("MSE-Var[ref]", true),
+    ("MSE-Var 95% lo", false),
+    ("MSE-Var 95% hi", false),
+    ("relMSE-Var[ref]", false),
+    ("lit px", false),
+    ("lit MSE", true),
+    ("lit MSE 95% lo", false),
+    ("lit MSE 95% hi", false),
+    ("lit relMSE", true),
+    ("lit MSE-Var[ref]", true),
+    ("lit relMSE-Var[ref]", false),
+    ("variance", false),
+    ("eff 1/(relMSE s)", true),
+    ("eff 1/(var s)", false),
+    ("MSE ratio", true),
+    ("eff ratio", true),
+    ("fireflies", false),
+    ("max sample", false),
+    ("heavy tail", true),
+    ("biased", false),
+    ("external", false),
 ];
 
-fn cells(r: &BenchRow) -> [String; 18] {
+fn cells(row: &ReportRow) -> [String; 31] {
     let e = |x: f64| format!("{x:.3e}");
     let opt = |x: Option<f64>| x.map_or("-".into(), e);
-    let (lo, hi) = r
-        .mse_interval
-        .map_or(("-".into(), "-".into()), |[a, b]| (e(a), e(b)));
-    [
-        super::bench::estimator_label(&r.estimator()),
-        r.spp.to_string(),
-        short(r.seconds),
-        short(r.seconds_min),
-        short(r.seconds_max),
-        short(r.rays as f64 / 1e6),
-        e(r.mse),
+    let ends = |i: Option<[f64; 2]>| i.map_or(("-".into(), "-".into()), |[a, b]| (e(a), e(b)));
+    let yes = |b: bool| if b { "yes" } else { "no" }.to_string();
+    let errors = row.errors();
+    let all = &errors.all;
+    let lit = errors.lit.as_ref();
+    let (lo, hi) = ends(all.mse_interval);
+    let (clo, chi) = ends(all.mse_corrected_interval);
+    let (llo, lhi) = ends(lit.and_then(|l| l.mse_interval));
+    let errors_cells = [
+        e(all.mse),
         lo,
         hi,
-        e(r.relmse),
-        opt(r.variance),
-        e(r.efficiency),
-        opt(r.efficiency_variance),
-        format!("{:.3}", r.mse_ratio),
-        format!("{:.3}", r.efficiency_ratio),
-        r.fireflies.to_string(),
-        e(r.max_sample_luminance),
-        if r.biased { "yes" } else { "no" }.into(),
-    ]
+        e(all.relmse),
+        opt(all.mse_corrected),
+        clo,
+        chi,
+        opt(all.relmse_corrected),
+        lit.map_or("-".into(), |l| l.pixels.to_string()),
+        opt(lit.map(|l| l.mse)),
+        llo,
+        lhi,
+        opt(lit.map(|l| l.relmse)),
+        opt(lit.and_then(|l| l.mse_corrected)),
+        opt(lit.and_then(|l| l.relmse_corrected)),
+    ];
+    let [a, b, c, d, f, g, h, i, j, k, l, m, n, o, p] = errors_cells;
+    match row {
+        ReportRow::Bench(r) => [
+            row.label(),
+            r.spp.to_string(),
+            short(r.seconds),
+            short(r.seconds_min),
+            short(r.seconds_max),
+            short(r.rays as f64 / 1e6),
+            a,
+            b,
+            c,
+            d,
+            f,
+            g,
+            h,
+            i,
+            j,
+            k,
+            l,
+            m,
+            n,
+            o,
+            p,
+            opt(r.variance),
+            e(r.efficiency),
+            opt(r.efficiency_variance),
+            format!("{:.3}", r.mse_ratio),
+            format!("{:.3}", r.efficiency_ratio),
+            r.fireflies.to_string(),
+            e(r.max_sample_luminance),
+            yes(r.heavy_tail.is_some()),
+            yes(r.biased),
+            "no".into(),
+        ],
+        ReportRow::External(x) => [
+            row.label(),
+            x.spp.map_or("-".into(), |s| s.to_string()),
+            x.seconds.map_or("-".into(), short),
+            "-".into(),
+            "-".into(),
+            "-".into(),
+            a,
+            b,
+            c,
+            d,
+            f,
+            g,
+            h,
+            i,
+            j,
+            k,
+            l,
+            m,
+            n,
+            o,
+            p,
+            "-".into(),
+            opt(x.efficiency),
+            "-".into(),
+            "-".into(),
+            "-".into(),
+            "-".into(),
+            "-".into(),
+            yes(x.heavy_tail.is_some()),
+            "-".into(),
+            "yes".into(),
+        ],
+    }
 }
 
 /// Three decimals from 0.1 up, else three significant digits in scientific notation.
@@ -67,14 +154,22 @@ fn short(x: f64) -> String {
     }
 }
 
-/// The rows as a right-aligned text table (config left-aligned).
-pub fn table(rows: &[BenchRow]) -> String {
-    let all: Vec<[String; 18]> = rows.iter().map(cells).collect();
-    let widths: Vec<usize> = (0..HEADERS.len())
+/// The rows as a right-aligned text table (config left-aligned) of the columns marked for it.
+pub fn table(rows: &[ReportRow]) -> String {
+    let shown: Vec<usize> = (0..HEADERS.len()).filter(|&c| HEADERS[c].1).collect();
+    let all: Vec<Vec<String>> = rows
+        .iter()
+        .map(|r| {
+            let cells = cells(r);
+            shown.iter().map(|&c| cells[c].clone()).collect()
+        })
+        .collect();
+    let headers: Vec<&str> = shown.iter().map(|&c| HEADERS[c].0).collect();
+    let widths: Vec<usize> = (0..headers.len())
         .map(|c| {
             all.iter()
                 .map(|r| r[c].chars().count())
-                .chain([HEADERS[c].len()])
+                .chain([headers[c].chars().count()])
                 .max()
                 .unwrap_or(0)
         })
@@ -91,7 +186,7 @@ pub fn table(rows: &[BenchRow]) -> String {
         }
         out.push('\n');
     };
-    line(HEADERS.to_vec());
+    line(headers);
     for r in &all {
         line(r.iter().map(String::as_str).collect());
     }
@@ -99,8 +194,8 @@ pub fn table(rows: &[BenchRow]) -> String {
 }
 
 /// The rows as CSV (RFC 4180; no cell needs quoting).
-pub fn csv(rows: &[BenchRow]) -> String {
-    let mut out = HEADERS.join(",") + "\n";
+pub fn csv(rows: &[ReportRow]) -> String {
+    let mut out = header_names().join(",") + "\n";
     for r in rows {
         out += &cells(r).join(",");
         out.push('\n');
@@ -109,13 +204,17 @@ pub fn csv(rows: &[BenchRow]) -> String {
 }
 
 /// The rows as a GitHub Markdown table.
-pub fn markdown(rows: &[BenchRow]) -> String {
-    let mut out = format!("| {} |\n", HEADERS.join(" | "));
+pub fn markdown(rows: &[ReportRow]) -> String {
+    let mut out = format!("| {} |\n", header_names().join(" | "));
     out += &format!("|{}\n", "---|".repeat(HEADERS.len()));
     for r in rows {
         out += &format!("| {} |\n", cells(r).join(" | "));
     }
     out
+}
+
+fn header_names() -> Vec<&'static str> {
+    HEADERS.iter().map(|h| h.0).collect()
 }
 
 /// Writes `text` to `path` atomically.
