@@ -65,6 +65,7 @@ pub fn run_converge(args: &ConvergeArgs) -> anyhow::Result<bool> {
         tolerance: args.tolerance,
     };
     let setup = SceneSetup::load(&o.scene, o.camera.as_ref(), o.width, o.height)?
+        .with_punctual_units(o.punctual_units)
         .with_environment(o.environment()?);
     check_resolution(setup.width, setup.height)?;
     let pool = o.thread_pool()?;

@@ -13,7 +13,7 @@ use crate::integrator::Strategy;
 use crate::lights::{EnvironmentError, EnvironmentMap};
 use crate::measure::EstimatorChoice;
 use crate::sampling::sampler::SamplerKind;
-use crate::scene::CameraChoice;
+use crate::scene::{CameraChoice, PunctualUnits};
 use crate::select::SelectorKind;
 
 #[derive(Args, Debug, Clone)]
@@ -54,6 +54,11 @@ pub struct RenderOptionsArgs {
     /// Camera node index (in scene order) or name; default the first perspective camera.
     #[arg(long)]
     pub camera: Option<CameraChoice>,
+    /// Units of KHR_lights_punctual intensities: photometric (cd, lx; the glTF specification,
+    /// divided by 683 lm/W) or radiometric (W/sr, W/m²; files written for manylights before it
+    /// followed the specification).
+    #[arg(long, value_enum, default_value_t = PunctualUnits::Photometric)]
+    pub punctual_units: PunctualUnits,
     /// Clamp each camera sample's radiance per channel to this value (biased: removes
     /// fireflies at the price of energy; reports mark the configuration biased).
     #[arg(long, value_parser = positive_finite)]

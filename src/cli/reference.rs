@@ -47,6 +47,7 @@ pub fn run(args: &ReferenceArgs) -> anyhow::Result<()> {
     let estimator = o.estimator(&REFERENCE_DEFAULTS)?;
     let spp = o.single_spp(&REFERENCE_DEFAULTS)?;
     let setup = SceneSetup::load(&o.scene, o.camera.as_ref(), o.width, o.height)?
+        .with_punctual_units(o.punctual_units)
         .with_environment(o.environment()?);
     check_resolution(setup.width, setup.height)?;
     let options = ReferenceOptions {

@@ -123,10 +123,11 @@ fn render_scene(
     let mut seconds = Timings::default();
     let t = Instant::now();
     let scene = load_gltf(&o.scene, &o.camera.clone().unwrap_or_default())?
+        .with_punctual_units(o.punctual_units)
         .with_environment(o.environment()?);
     seconds.load = t.elapsed().as_secs_f64();
 
-    let camera = camera_or_framing(&scene, &o.scene);
+    let camera = camera_or_framing(&scene, &o.scene, o.width, o.height);
     let (width, height) = camera.resolution(o.width, o.height);
     check_resolution(width, height)?;
 

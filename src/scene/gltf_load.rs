@@ -26,7 +26,8 @@ use gltf::camera::Projection;
 
 use super::texture_decode::decode_image;
 use super::{
-    geometric_normal, Camera, LoadStats, Material, PunctualKind, PunctualLight, Scene, Texture,
+    geometric_normal, Camera, LoadStats, Material, PunctualKind, PunctualLight, PunctualUnits, Scene,
+    Texture,
     Triangle, Wrap,
 };
 
@@ -237,6 +238,7 @@ pub fn load_gltf_bytes(
     let scene_element = format!("scene {}", scene.index());
     let mut scene = Scene::new(triangles, materials, camera)
         .and_then(|s| s.with_punctual(punctual))
+        .map(|s| s.with_punctual_units(PunctualUnits::Photometric))
         .and_then(|s| s.with_textures(textures))
         .map_err(|m| invalid(scene_element, m))?;
     scene.stats.skipped_primitives = stats.skipped_primitives;
@@ -888,8 +890,8 @@ fn convert_material(m: &gltf::Material) -> Material {
 }
 
 /// A KHR_lights_punctual light placed by its node: at the node's origin, pointing down its −Z.
-/// glTF's photometric intensity (cd, lx) is read as radiometric (W/sr, W/m²); `range` is ignored
-/// (physical inverse-square falloff everywhere).
+/// Its intensity stays in the file's photometric units (cd, lx), converted when lights are built;
+/// `range` is ignored (physical inverse-square falloff everywhere).
 fn convert_light(light: &gltf::khr_lights_punctual::Light, world: &Mat4) -> PunctualLight {
     use gltf::khr_lights_punctual::Kind;
     let kind = match light.kind() {
@@ -917,32 +919,59 @@ fn convert_light(light: &gltf::khr_lights_punctual::Light, world: &Mat4) -> Punc
 
 type CameraNode<'a> = (gltf::Node<'a>, gltf::Camera<'a>, Mat4);
 
-fn choose_camera(cameras: &[CameraNode], choice: &CameraChoice) -> Result<Option<Camera>, String> {
-    let perspective = |(node, cam, world): &CameraNode| -> Option<Camera> {
-        match cam.projection() {
-            Projection::Perspective(p) => {
-                let name = node.name().or(cam.name()).unwrap_or("").to_string();
-                Camera::from_world_matrix(name, world, p.yfov(), p.aspect_ratio())
-            }
-            Projection::Orthographic(_) => None,
+/// A camera node as a [`Camera`] (None when its projection is degenerate: zero field of view
+/// or magnification, or a transform that collapses its view direction).
+fn convert_camera((node, cam, world): &CameraNode) -> Option<Camera> {
+    let name = node.name().or(cam.name()).unwrap_or("").to_string();
+    match cam.projection() {
+        Projection::Perspective(p) => {
+            Camera::from_world_matrix(name, world, p.yfov(), p.aspect_ratio())
         }
-    };
+        Projection::Orthographic(o) => Camera::orthographic(name, world, o.xmag(), o.ymag()),
+    }
+}
+
+/// "0 'near' (perspective), 1 'top' (orthographic)": the cameras a `--camera` may name.
+fn list_cameras(cameras: &[CameraNode]) -> String {
+    if cameras.is_empty() {
+        return "the scene has no camera".into();
+    }
+    let list: Vec<String> = cameras
+        .iter()
+        .enumerate()
+        .map(|(i, (node, cam, _))| {
+            let name = node.name().or(cam.name()).map_or(String::new(), |n| format!(" '{n}'"));
+            let kind = match cam.projection() {
+                Projection::Perspective(_) => "perspective",
+                Projection::Orthographic(_) => "orthographic",
+            };
+            format!("{i}{name} ({kind})")
+        })
+        .collect();
+    format!("the scene's cameras: {}", list.join(", "))
+}
+
+fn choose_camera(cameras: &[CameraNode], choice: &CameraChoice) -> Result<Option<Camera>, String> {
     let chosen = match choice {
-        CameraChoice::First => return Ok(cameras.iter().find_map(perspective)),
-        CameraChoice::Index(i) => cameras.get(*i).ok_or_else(|| {
-            format!(
-                "--camera {i}: the scene has {} camera node(s)",
-                cameras.len()
-            )
-        })?,
+        CameraChoice::First => return Ok(cameras.iter().find_map(convert_camera)),
+        CameraChoice::Index(i) => cameras
+            .get(*i)
+            .ok_or_else(|| format!("--camera {i}: no such camera; {}", list_cameras(cameras)))?,
         CameraChoice::Name(name) => cameras
             .iter()
             .find(|(n, c, _)| n.name() == Some(name) || c.name() == Some(name))
-            .ok_or_else(|| format!("--camera '{name}': no camera node or camera of that name"))?,
+            .ok_or_else(|| {
+                format!(
+                    "--camera '{name}': no camera node or camera of that name; {}",
+                    list_cameras(cameras)
+                )
+            })?,
     };
-    perspective(chosen)
-        .map(Some)
-        .ok_or_else(|| "the chosen camera is not a valid perspective camera".into())
+    convert_camera(chosen).map(Some).ok_or_else(|| {
+        "the chosen camera is degenerate (zero field of view or magnification, or a transform \
+         without a view direction)"
+            .into()
+    })
 }
 
 #[cfg(test)]
