@@ -14,7 +14,14 @@
 //! buffer view, a data URI or a file relative to the scene, into linear RGB with their sampler's
 //! wrap modes; min/mag filters are ignored (always bilinear). Only TEXCOORD_0 is supported: a
 //! texture read through another set is an error rather than a silently wrong picture. A missing,
-//! unreadable or undecodable image is an error naming the image and its file.
+//! unreadable or undecodable image is an error naming the image and its file. A reference's
+//! KHR_texture_transform (offset, rotation, scale, and its texCoord override) travels with the
+//! texture (see `texture.rs`); one image referenced with two transforms is decoded twice.
+//!
+//! Extensions: KHR_lights_punctual (intensities kept in the file's photometric units),
+//! KHR_materials_emissive_strength, KHR_materials_specular and KHR_texture_transform are
+//! implemented; a file requiring any other is refused with a message naming it and what it
+//! would change. Cameras: perspective and orthographic (`camera.rs`).
 
 use std::io::Read;
 use std::path::{Path, PathBuf};
@@ -27,7 +34,7 @@ use gltf::camera::Projection;
 use super::texture_decode::decode_image;
 use super::{
     geometric_normal, Camera, LoadStats, Material, PunctualKind, PunctualLight, PunctualUnits, Scene,
-    Texture,
+    Texture, UvTransform,
     Triangle, Wrap,
 };
 
@@ -143,6 +150,7 @@ pub fn load_gltf_bytes(
         gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| format(e.to_string()))?;
     let root = document.into_json();
     check_unchecked_indices(&root).map_err(format)?;
+    check_required_extensions(&root).map_err(format)?;
     let document = gltf::Document::from_json(root).map_err(|e| format(e.to_string()))?;
     let invalid = |element: String, message: String| LoadError::Invalid {
         path: path.into(),
@@ -171,7 +179,7 @@ pub fn load_gltf_bytes(
         materials: Vec::new(),
         material_map: vec![None; document.materials().len() + 1],
         textures: Vec::new(),
-        texture_map: vec![None; document.textures().len()],
+        texture_map: std::collections::HashMap::new(),
     };
 
     let mut triangles = Vec::new();
@@ -326,6 +334,53 @@ fn check_glb_header(bytes: &[u8]) -> Result<(), String> {
             ));
         }
         at = end;
+    }
+    Ok(())
+}
+
+/// The extensions this loader implements; a file may require these and no others.
+const SUPPORTED_EXTENSIONS: [&str; 4] = [
+    "KHR_lights_punctual",
+    "KHR_materials_emissive_strength",
+    "KHR_materials_specular",
+    "KHR_texture_transform",
+];
+
+/// What a required extension we do not implement would change, for the refusal message.
+fn extension_effect(name: &str) -> &'static str {
+    match name {
+        "KHR_draco_mesh_compression" | "EXT_meshopt_compression" => {
+            "the geometry is stored compressed and cannot be read without it"
+        }
+        "KHR_mesh_quantization" => "vertex attributes are stored as integers it would rescale",
+        "KHR_texture_basisu" | "EXT_texture_webp" | "EXT_texture_avif" => {
+            "textures are in an image format we do not decode (we read PNG and JPEG)"
+        }
+        "KHR_materials_pbrSpecularGlossiness" => "materials use the specular-glossiness model",
+        "KHR_materials_unlit" => "materials would be shown unlit (their colour as emission)",
+        "KHR_materials_transmission" | "KHR_materials_volume" | "KHR_materials_ior" => {
+            "materials would transmit or refract light"
+        }
+        "KHR_materials_clearcoat" | "KHR_materials_sheen" | "KHR_materials_iridescence"
+        | "KHR_materials_anisotropy" => "materials would gain another reflection lobe",
+        "EXT_mesh_gpu_instancing" => "meshes would be instanced by per-instance transforms",
+        "KHR_materials_variants" => "materials would be chosen among variants",
+        _ => "an extension we do not know, so its effect on the scene is unknown",
+    }
+}
+
+/// A file that lists in `extensionsRequired` an extension we do not implement is refused,
+/// naming it and what it would change (the `gltf` crate would only say "Unsupported extension").
+fn check_required_extensions(root: &gltf::json::Root) -> Result<(), String> {
+    for name in &root.extensions_required {
+        if !SUPPORTED_EXTENSIONS.contains(&name.as_str()) {
+            return Err(format!(
+                "requires the extension {name}, which manylights does not implement \
+                 ({}); supported: {}",
+                extension_effect(name),
+                SUPPORTED_EXTENSIONS.join(", ")
+            ));
+        }
     }
     Ok(())
 }
@@ -489,8 +544,8 @@ struct Loader<'a> {
     /// glTF material index (last slot: the default material) → index into `materials`.
     material_map: Vec<Option<u32>>,
     textures: Vec<Texture>,
-    /// glTF texture index → index into `textures`.
-    texture_map: Vec<Option<u32>>,
+    /// (glTF texture index, its reference's uv transform as bits) → index into `textures`.
+    texture_map: std::collections::HashMap<(usize, Option<[u32; 6]>), u32>,
 }
 
 /// An error's element and message.
@@ -529,17 +584,42 @@ impl Loader<'_> {
         let Some(info) = info else {
             return Ok(None);
         };
-        if info.tex_coord() != 0 {
+        let transform = info.texture_transform().map(|t| {
+            UvTransform::from_offset_rotation_scale(
+                Vec2::from(t.offset()),
+                t.rotation(),
+                Vec2::from(t.scale()),
+            )
+        });
+        if transform.is_some_and(|t| !t.is_finite()) {
             return Err((
                 element(),
-                format!(
-                    "reads TEXCOORD_{}; only TEXCOORD_0 is supported",
-                    info.tex_coord()
-                ),
+                "KHR_texture_transform gives a non-finite offset, rotation or scale".into(),
+            ));
+        }
+        // KHR_texture_transform's texCoord overrides the reference's.
+        let set = info
+            .texture_transform()
+            .and_then(|t| t.tex_coord())
+            .unwrap_or(info.tex_coord());
+        if set != 0 {
+            return Err((
+                element(),
+                format!("reads TEXCOORD_{set}; only TEXCOORD_0 is supported"),
             ));
         }
         let texture = info.texture();
-        if let Some(i) = self.texture_map[texture.index()] {
+        let key = (
+            texture.index(),
+            transform.map(|t| {
+                [t.x_axis, t.y_axis, t.offset]
+                    .map(|v| v.to_array().map(f32::to_bits))
+                    .concat()
+                    .try_into()
+                    .expect("six numbers")
+            }),
+        );
+        if let Some(&i) = self.texture_map.get(&key) {
             return Ok(Some(i));
         }
         let image = texture.source();
@@ -581,10 +661,11 @@ impl Loader<'_> {
             convert_wrap(sampler.wrap_t()),
         ];
         let texture_out = Texture::new(decoded.width, decoded.height, decoded.texels, wrap)
-            .ok_or_else(|| (image_element, "texel count does not match its size".into()))?;
+            .ok_or_else(|| (image_element, "texel count does not match its size".into()))?
+            .with_transform(transform);
         let i = self.textures.len() as u32;
         self.textures.push(texture_out);
-        self.texture_map[texture.index()] = Some(i);
+        self.texture_map.insert(key, i);
         Ok(Some(i))
     }
 

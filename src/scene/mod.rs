@@ -17,7 +17,7 @@ pub use gltf_load::{
     load_gltf, load_gltf_bytes, read_scene_file, scene_folder, CameraChoice, LoadError,
     MAX_TRIANGLES,
 };
-pub use texture::{Texture, Wrap};
+pub use texture::{Texture, UvTransform, Wrap};
 
 use std::sync::Arc;
 
@@ -321,7 +321,7 @@ impl Scene {
         let m = self.material_of(triangle);
         match m.emissive_texture {
             Some(t) if m.is_emissive() => {
-                m.emission * self.textures[t as usize].sample_bilinear(self.uv_at(triangle, b1, b2))
+                m.emission * self.textures[t as usize].at(self.uv_at(triangle, b1, b2))
             }
             _ => m.emission,
         }
@@ -333,8 +333,7 @@ impl Scene {
         let m = self.material_of(triangle);
         match m.base_color_texture {
             Some(t) => {
-                m.base_color
-                    * self.textures[t as usize].sample_bilinear(self.uv_at(triangle, b1, b2))
+                m.base_color * self.textures[t as usize].at(self.uv_at(triangle, b1, b2))
             }
             None => m.base_color,
         }
@@ -342,13 +341,13 @@ impl Scene {
 
     /// Mean emitted radiance of `triangle` over its surface: emission factor × the emissive
     /// texture's mean over the triangle's uv footprint (see
-    /// [`Texture::average_over_uv_triangle`]); the factor alone when untextured.
+    /// [`Texture::footprint_mean`]); the factor alone when untextured.
     pub fn mean_emission(&self, triangle: usize) -> Vec3 {
         let m = self.material_of(triangle);
         match m.emissive_texture {
             Some(t) if m.is_emissive() => {
                 let uvs = self.triangles[triangle].uvs;
-                m.emission * self.textures[t as usize].average_over_uv_triangle(uvs)
+                m.emission * self.textures[t as usize].footprint_mean(uvs)
             }
             _ => m.emission,
         }
