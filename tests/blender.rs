@@ -25,12 +25,21 @@ const CAMERA_HEIGHT: f32 = 5.0;
 /// Lambertian material (KHR_materials_specular 0, metallic 0) or an emissive one, an
 /// orthographic camera looking down −Y from `CAMERA_HEIGHT` (right = +X, up = −Z), the given
 /// KHR_lights_punctual lights on their own nodes and extra top-level fields merged in.
-fn write_scene(dir: &Path, name: &str, lights: serde_json::Value, extra: serde_json::Value) -> PathBuf {
+fn write_scene(
+    dir: &Path,
+    name: &str,
+    lights: serde_json::Value,
+    extra: serde_json::Value,
+) -> PathBuf {
     let h = PLANE_HALF;
     let positions = [[-h, 0.0, h], [h, 0.0, h], [h, 0.0, -h], [-h, 0.0, -h]];
     let uvs = [[0.0f32, 1.0], [1.0, 1.0], [1.0, 0.0], [0.0, 0.0]];
     let indices: [u16; 6] = [0, 1, 2, 0, 2, 3];
-    let mut bin: Vec<u8> = positions.iter().flatten().flat_map(|f| f.to_le_bytes()).collect();
+    let mut bin: Vec<u8> = positions
+        .iter()
+        .flatten()
+        .flat_map(|f| f.to_le_bytes())
+        .collect();
     bin.extend(uvs.iter().flatten().flat_map(|f| f.to_le_bytes()));
     bin.extend(indices.iter().flat_map(|i| i.to_le_bytes()));
     let uri = format!(
@@ -179,7 +188,10 @@ fn blender_sun_in_lux_gives_lambert_radiance_and_radiometric_mode_keeps_the_numb
     // The sun node's −Z turned by θ about +Z toward +X... rotate −Z into (sin θ, −cos θ, 0):
     // first −90° about X (−Z → −Y), then θ about Z (−Y → (sin θ, −cos θ, 0)).
     let (s, c) = ((0.5 * theta).sin(), (0.5 * theta).cos());
-    let (qx, qw) = (-std::f64::consts::FRAC_1_SQRT_2, std::f64::consts::FRAC_1_SQRT_2);
+    let (qx, qw) = (
+        -std::f64::consts::FRAC_1_SQRT_2,
+        std::f64::consts::FRAC_1_SQRT_2,
+    );
     // q = qz(θ) · qx(−90°)
     let rotation = [c * qx, s * qx, s * qw, c * qw];
     let lights = serde_json::json!([[
@@ -195,7 +207,10 @@ fn blender_sun_in_lux_gives_lambert_radiance_and_radiometric_mode_keeps_the_numb
     );
     let expected = RHO as f64 / std::f64::consts::PI * 3.0 * theta.cos();
     for (mean, _) in render_pixels(&path, 4, 4) {
-        assert!((mean - expected).abs() < 1e-5 * expected, "{mean} vs {expected}");
+        assert!(
+            (mean - expected).abs() < 1e-5 * expected,
+            "{mean} vs {expected}"
+        );
     }
     let raw = Lights::from_scene(&scene.with_punctual_units(PunctualUnits::Radiometric));
     let photometric = Lights::from_scene(&load_gltf(&path, &CameraChoice::First).unwrap());
@@ -288,7 +303,8 @@ fn texture_transform_reads_the_texel_the_transform_names() {
 #[test]
 fn textured_emitter_power_follows_the_transform() {
     let dir = tempfile::tempdir().unwrap();
-    let transform = serde_json::json!({"offset": [0.3, -0.2], "rotation": 0.7, "scale": [1.7, 0.6]});
+    let transform =
+        serde_json::json!({"offset": [0.3, -0.2], "rotation": 0.7, "scale": [1.7, 0.6]});
     let extra = textured_extra(transform, &["KHR_texture_transform"]);
     let path = write_scene(dir.path(), "power", serde_json::json!([]), extra);
     let scene = load_gltf(&path, &CameraChoice::First).unwrap();
@@ -302,9 +318,15 @@ fn textured_emitter_power_follows_the_transform() {
                     sum += scene.emission_at(triangle, b1 as f32, b2 as f32).as_dvec3();
                     count += 1;
                 };
-                add((i as f64 + 1.0 / 3.0) / N as f64, (j as f64 + 1.0 / 3.0) / N as f64);
+                add(
+                    (i as f64 + 1.0 / 3.0) / N as f64,
+                    (j as f64 + 1.0 / 3.0) / N as f64,
+                );
                 if j + 1 < N - i {
-                    add((i as f64 + 2.0 / 3.0) / N as f64, (j as f64 + 2.0 / 3.0) / N as f64);
+                    add(
+                        (i as f64 + 2.0 / 3.0) / N as f64,
+                        (j as f64 + 2.0 / 3.0) / N as f64,
+                    );
                 }
             }
         }
@@ -360,8 +382,16 @@ fn unimplemented_required_extensions_are_refused_by_name_with_their_effect() {
 #[test]
 fn orthographic_camera_is_loaded_with_its_magnifications() {
     let dir = tempfile::tempdir().unwrap();
-    let path = write_scene(dir.path(), "ortho", serde_json::json!([]), serde_json::json!({}));
-    let camera = load_gltf(&path, &CameraChoice::First).unwrap().camera.unwrap();
+    let path = write_scene(
+        dir.path(),
+        "ortho",
+        serde_json::json!([]),
+        serde_json::json!({}),
+    );
+    let camera = load_gltf(&path, &CameraChoice::First)
+        .unwrap()
+        .camera
+        .unwrap();
     assert_eq!(camera.projection, Projection::Orthographic { ymag: MAG });
     assert_eq!(camera.aspect_ratio, Some(1.0));
     assert!((camera.forward - Vec3::NEG_Y).length() < 1e-6);
@@ -369,5 +399,50 @@ fn orthographic_camera_is_loaded_with_its_magnifications() {
     assert!(
         err.to_string().contains("0 'Camera' (orthographic)"),
         "{err}"
+    );
+}
+
+/// `info` on a Blender-style file with a 100 W point light, a 300 W spot and a 2 W/m² sun:
+/// no emissive triangles, the three lights in their own section with their watts.
+#[test]
+fn info_lists_punctual_lights_apart_from_triangles() {
+    let dir = tempfile::tempdir().unwrap();
+    let four_pi = 4.0 * std::f64::consts::PI;
+    let s = std::f64::consts::FRAC_1_SQRT_2;
+    let lights = serde_json::json!([
+        [{"type": "point", "intensity": 100.0 / four_pi * 683.0}, {"translation": [0, 2, 0]}],
+        [{"type": "spot", "intensity": 300.0 / four_pi * 683.0,
+          "spot": {"innerConeAngle": 0.6, "outerConeAngle": 0.7}},
+         {"translation": [1, 2, 0], "rotation": [-s, 0, 0, s]}],
+        [{"type": "directional", "intensity": 2.0 * 683.0}, {"rotation": [-s, 0, 0, s]}]
+    ]);
+    let path = write_scene(dir.path(), "three", lights, serde_json::json!({}));
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_manylights"))
+        .arg("info")
+        .arg(&path)
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{text}");
+    assert!(text.contains("emissive triangles 0 "), "{text}");
+    assert!(
+        text.contains("punctual lights    3 (photometric units"),
+        "{text}"
+    );
+    let power_of = |kind: &str| -> f64 {
+        let line = text.lines().find(|l| l.contains(kind)).unwrap();
+        let watts = line.split("power ").nth(1).unwrap();
+        watts.split(' ').next().unwrap().parse().unwrap()
+    };
+    assert!((power_of(" point ") - 100.0).abs() < 1e-2, "{text}");
+    // The spot's power is the cone's share of 4π·I: 300 W × (1 − (cos 0.6 + cos 0.7)/2)/2.
+    let spot = 300.0 * (1.0 - 0.5 * (0.6f64.cos() + 0.7f64.cos())) / 2.0;
+    assert!((power_of(" spot ") - spot).abs() < 1e-3 * spot, "{text}");
+    // The sun: π·R²·E with R the plane's bounding-sphere radius (half its diagonal).
+    let r2 = 2.0 * (PLANE_HALF as f64).powi(2);
+    let sun = std::f64::consts::PI * r2 * 2.0;
+    assert!(
+        (power_of(" directional ") - sun).abs() < 1e-3 * sun,
+        "{text}"
     );
 }

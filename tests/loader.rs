@@ -200,7 +200,8 @@ fn cameras_are_chosen_by_index_or_name() {
     );
     let err = z_of(CameraChoice::Index(2)).unwrap_err();
     assert!(
-        err.to_string().contains("0 'near' (perspective), 1 'far' (perspective)"),
+        err.to_string()
+            .contains("0 'near' (perspective), 1 'far' (perspective)"),
         "{err}"
     );
     // Resolution follows the camera's aspect ratio (2.0) unless --height is given.

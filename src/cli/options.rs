@@ -29,15 +29,15 @@ pub struct RenderOptionsArgs {
     /// Points sampled on each chosen light, N (bench: a list).
     #[arg(long, value_delimiter = ',', value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub n: Vec<u32>,
-    /// Light selector [default: power; reference: bvh] (bench: a list, also as --selectors).
+    /// Light selector [default: bvh; bench: power] (bench: a list, also as --selectors).
     #[arg(long, value_enum, value_delimiter = ',', alias = "selectors")]
     pub selector: Vec<SelectorKind>,
-    /// Estimation strategy [default: light-area; reference: mis] (bench: a list, also as
+    /// Estimation strategy [default: mis; bench: light-area] (bench: a list, also as
     /// --strategies).
     #[arg(long, value_enum, value_delimiter = ',', alias = "strategies")]
     pub strategy: Vec<Strategy>,
-    /// Sample sequence for every number a camera sample consumes [default: independent]
-    /// (bench: a list, also as --samplers).
+    /// Sample sequence for every number a camera sample consumes [default: sobol; bench:
+    /// independent] (bench: a list, also as --samplers).
     #[arg(long, value_enum, value_delimiter = ',', alias = "samplers")]
     pub sampler: Vec<SamplerKind>,
     #[arg(long, default_value_t = 0)]
@@ -82,9 +82,26 @@ pub struct Defaults {
     pub estimator: EstimatorChoice,
 }
 
-/// `render`'s defaults: 16 spp, power selection, light-area sampling, K = N = 1, independent
-/// numbers.
+/// `render`'s and `converge`'s defaults, the best configuration measured: 16 spp, light BVH
+/// selection, MIS of light and BSDF samples, K = N = 1, Owen-scrambled Sobol numbers. On
+/// town.glb (128², 16 spp, 3 repeats, `bench --selectors power,bvh --strategies light-area,mis
+/// --samplers independent,sobol`) its MSE is 11.3× lower than the textbook baseline's below,
+/// and its efficiency 1/(relMSE·s) 3.0× higher.
 pub const RENDER_DEFAULTS: Defaults = Defaults {
+    spp: 16,
+    estimator: EstimatorChoice {
+        selector: SelectorKind::Bvh,
+        strategy: Strategy::Mis,
+        k: 1,
+        n: 1,
+        sampler: SamplerKind::Sobol,
+    },
+};
+
+/// `bench`'s defaults for any list not given, so that a sweep's first row (its default
+/// baseline) is the textbook estimator: power selection, light-area sampling, K = N = 1,
+/// independent numbers.
+pub const BENCH_DEFAULTS: Defaults = Defaults {
     spp: 16,
     estimator: EstimatorChoice {
         selector: SelectorKind::Power,

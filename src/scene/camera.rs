@@ -248,7 +248,10 @@ mod tests {
                 let v = c - cam.position;
                 let depth = v.dot(cam.forward);
                 let (sx, sy) = (v.dot(cam.right) / depth, v.dot(cam.up) / depth);
-                assert!(sx.abs() <= t * aspect && sy.abs() <= t, "{aspect}: corner {c}");
+                assert!(
+                    sx.abs() <= t * aspect && sy.abs() <= t,
+                    "{aspect}: corner {c}"
+                );
             }
         }
     }

@@ -33,9 +33,8 @@ use gltf::camera::Projection;
 
 use super::texture_decode::decode_image;
 use super::{
-    geometric_normal, Camera, LoadStats, Material, PunctualKind, PunctualLight, PunctualUnits, Scene,
-    Texture, UvTransform,
-    Triangle, Wrap,
+    geometric_normal, Camera, LoadStats, Material, PunctualKind, PunctualLight, PunctualUnits,
+    Scene, Texture, Triangle, UvTransform, Wrap,
 };
 
 /// Which of the scene's perspective cameras to use, by position in node order or by name.
@@ -361,7 +360,9 @@ fn extension_effect(name: &str) -> &'static str {
         "KHR_materials_transmission" | "KHR_materials_volume" | "KHR_materials_ior" => {
             "materials would transmit or refract light"
         }
-        "KHR_materials_clearcoat" | "KHR_materials_sheen" | "KHR_materials_iridescence"
+        "KHR_materials_clearcoat"
+        | "KHR_materials_sheen"
+        | "KHR_materials_iridescence"
         | "KHR_materials_anisotropy" => "materials would gain another reflection lobe",
         "EXT_mesh_gpu_instancing" => "meshes would be instanced by per-instance transforms",
         "KHR_materials_variants" => "materials would be chosen among variants",
@@ -1021,7 +1022,10 @@ fn list_cameras(cameras: &[CameraNode]) -> String {
         .iter()
         .enumerate()
         .map(|(i, (node, cam, _))| {
-            let name = node.name().or(cam.name()).map_or(String::new(), |n| format!(" '{n}'"));
+            let name = node
+                .name()
+                .or(cam.name())
+                .map_or(String::new(), |n| format!(" '{n}'"));
             let kind = match cam.projection() {
                 Projection::Perspective(_) => "perspective",
                 Projection::Orthographic(_) => "orthographic",

@@ -332,9 +332,7 @@ impl Scene {
     pub fn base_color_at(&self, triangle: usize, b1: f32, b2: f32) -> Vec3 {
         let m = self.material_of(triangle);
         match m.base_color_texture {
-            Some(t) => {
-                m.base_color * self.textures[t as usize].at(self.uv_at(triangle, b1, b2))
-            }
+            Some(t) => m.base_color * self.textures[t as usize].at(self.uv_at(triangle, b1, b2)),
             None => m.base_color,
         }
     }
