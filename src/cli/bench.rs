@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use anyhow::Context;
 use clap::Args;
 
-use super::options::{check_resolution, RenderOptionsArgs, BENCH_DEFAULTS};
+use super::options::{check_resolution, RenderOptionsArgs, TEXTBOOK_DEFAULTS};
 use super::output::{check_output_folder, check_output_path};
 use super::reference::obtain_reference;
 use super::UsageError;
@@ -98,7 +98,7 @@ fn or<T: Clone>(values: &[T], default: T) -> Vec<T> {
 /// Every (selector, strategy, K, N, sampler) the options ask for, in the order given.
 pub fn estimators(args: &BenchArgs) -> Result<Vec<EstimatorChoice>, UsageError> {
     let o = &args.options;
-    let d = BENCH_DEFAULTS.estimator;
+    let d = TEXTBOOK_DEFAULTS.estimator;
     let kn = if args.kn.is_empty() {
         let mut kn = Vec::new();
         for k in or(&o.k, d.k) {

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use super::options::{check_resolution, RenderOptionsArgs, RENDER_DEFAULTS};
+use super::options::{check_resolution, RenderOptionsArgs, TEXTBOOK_DEFAULTS};
 use super::output::check_output_path;
 use super::reference::obtain_reference;
 use super::UsageError;
@@ -57,7 +57,7 @@ pub fn run_converge(args: &ConvergeArgs) -> anyhow::Result<bool> {
         return Err(UsageError("converge needs at least two distinct --spp values".into()).into());
     }
     let opts = ConvergeOptions {
-        estimator: o.estimator(&RENDER_DEFAULTS)?,
+        estimator: o.estimator(&TEXTBOOK_DEFAULTS)?,
         spp,
         seeds: args.seeds,
         seed: o.seed,

@@ -33,7 +33,7 @@ pub fn run(args: &InfoArgs) -> anyhow::Result<()> {
         lights.triangle_count(),
         two_sided
     );
-    let triangle_power: f64 = lights.triangles().map(|t| t.power()).sum();
+    let triangle_power = lights.triangles().fold(0.0, |sum, t| sum + t.power());
     println!("triangle power     {triangle_power:.6e} W (Φ = π·A·luminance, ×2 two-sided)");
     print_punctual(&scene);
     println!(

@@ -29,15 +29,15 @@ pub struct RenderOptionsArgs {
     /// Points sampled on each chosen light, N (bench: a list).
     #[arg(long, value_delimiter = ',', value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub n: Vec<u32>,
-    /// Light selector [default: bvh; bench: power] (bench: a list, also as --selectors).
+    /// Light selector [default: bvh; bench, converge: power] (bench: a list, also as --selectors).
     #[arg(long, value_enum, value_delimiter = ',', alias = "selectors")]
     pub selector: Vec<SelectorKind>,
-    /// Estimation strategy [default: mis; bench: light-area] (bench: a list, also as
+    /// Estimation strategy [default: mis; bench, converge: light-area] (bench: a list, also as
     /// --strategies).
     #[arg(long, value_enum, value_delimiter = ',', alias = "strategies")]
     pub strategy: Vec<Strategy>,
-    /// Sample sequence for every number a camera sample consumes [default: sobol; bench:
-    /// independent] (bench: a list, also as --samplers).
+    /// Sample sequence for every number a camera sample consumes [default: sobol; bench,
+    /// converge: independent] (bench: a list, also as --samplers).
     #[arg(long, value_enum, value_delimiter = ',', alias = "samplers")]
     pub sampler: Vec<SamplerKind>,
     #[arg(long, default_value_t = 0)]
@@ -82,7 +82,7 @@ pub struct Defaults {
     pub estimator: EstimatorChoice,
 }
 
-/// `render`'s and `converge`'s defaults, the best configuration measured: 16 spp, light BVH
+/// `render`'s defaults, the best configuration measured: 16 spp, light BVH
 /// selection, MIS of light and BSDF samples, K = N = 1, Owen-scrambled Sobol numbers. On
 /// town.glb (128², 16 spp, 3 repeats, `bench --selectors power,bvh --strategies light-area,mis
 /// --samplers independent,sobol`) its MSE is 11.3× lower than the textbook baseline's below,
@@ -98,10 +98,11 @@ pub const RENDER_DEFAULTS: Defaults = Defaults {
     },
 };
 
-/// `bench`'s defaults for any list not given, so that a sweep's first row (its default
-/// baseline) is the textbook estimator: power selection, light-area sampling, K = N = 1,
-/// independent numbers.
-pub const BENCH_DEFAULTS: Defaults = Defaults {
+/// The textbook estimator: power selection, light-area sampling, K = N = 1, independent numbers.
+/// `bench` takes it for any list not given, so that a sweep's first row (its default baseline)
+/// is this estimator; `converge` defaults to it because it checks plain Monte Carlo's MSE ∝ 1/spp
+/// (a Sobol sequence converges faster: slope −1.70 on cornell).
+pub const TEXTBOOK_DEFAULTS: Defaults = Defaults {
     spp: 16,
     estimator: EstimatorChoice {
         selector: SelectorKind::Power,

@@ -29,31 +29,15 @@ use std::path::{Path, PathBuf};
 use base64::Engine;
 use glam::{Mat3, Mat4, Vec2, Vec3};
 use gltf::accessor::{DataType, Dimensions};
-use gltf::camera::Projection;
 
+use super::gltf_camera::choose_camera;
+pub use super::gltf_camera::CameraChoice;
+use super::gltf_extensions::{check_required_extensions, convert_light};
 use super::texture_decode::decode_image;
 use super::{
-    geometric_normal, Camera, LoadStats, Material, PunctualKind, PunctualLight, PunctualUnits,
-    Scene, Texture, Triangle, UvTransform, Wrap,
+    geometric_normal, LoadStats, Material, PunctualUnits, Scene, Texture, Triangle, UvTransform,
+    Wrap,
 };
-
-/// Which of the scene's perspective cameras to use, by position in node order or by name.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub enum CameraChoice {
-    #[default]
-    First,
-    Index(usize),
-    Name(String),
-}
-
-impl std::str::FromStr for CameraChoice {
-    type Err = std::convert::Infallible;
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        Ok(s.parse()
-            .map(CameraChoice::Index)
-            .unwrap_or_else(|_| CameraChoice::Name(s.into())))
-    }
-}
 
 /// Why a scene file could not be loaded; every variant names the file.
 #[derive(Debug, thiserror::Error)]
@@ -333,55 +317,6 @@ fn check_glb_header(bytes: &[u8]) -> Result<(), String> {
             ));
         }
         at = end;
-    }
-    Ok(())
-}
-
-/// The extensions this loader implements; a file may require these and no others.
-const SUPPORTED_EXTENSIONS: [&str; 4] = [
-    "KHR_lights_punctual",
-    "KHR_materials_emissive_strength",
-    "KHR_materials_specular",
-    "KHR_texture_transform",
-];
-
-/// What a required extension we do not implement would change, for the refusal message.
-fn extension_effect(name: &str) -> &'static str {
-    match name {
-        "KHR_draco_mesh_compression" | "EXT_meshopt_compression" => {
-            "the geometry is stored compressed and cannot be read without it"
-        }
-        "KHR_mesh_quantization" => "vertex attributes are stored as integers it would rescale",
-        "KHR_texture_basisu" | "EXT_texture_webp" | "EXT_texture_avif" => {
-            "textures are in an image format we do not decode (we read PNG and JPEG)"
-        }
-        "KHR_materials_pbrSpecularGlossiness" => "materials use the specular-glossiness model",
-        "KHR_materials_unlit" => "materials would be shown unlit (their colour as emission)",
-        "KHR_materials_transmission" | "KHR_materials_volume" | "KHR_materials_ior" => {
-            "materials would transmit or refract light"
-        }
-        "KHR_materials_clearcoat"
-        | "KHR_materials_sheen"
-        | "KHR_materials_iridescence"
-        | "KHR_materials_anisotropy" => "materials would gain another reflection lobe",
-        "EXT_mesh_gpu_instancing" => "meshes would be instanced by per-instance transforms",
-        "KHR_materials_variants" => "materials would be chosen among variants",
-        _ => "an extension we do not know, so its effect on the scene is unknown",
-    }
-}
-
-/// A file that lists in `extensionsRequired` an extension we do not implement is refused,
-/// naming it and what it would change (the `gltf` crate would only say "Unsupported extension").
-fn check_required_extensions(root: &gltf::json::Root) -> Result<(), String> {
-    for name in &root.extensions_required {
-        if !SUPPORTED_EXTENSIONS.contains(&name.as_str()) {
-            return Err(format!(
-                "requires the extension {name}, which manylights does not implement \
-                 ({}); supported: {}",
-                extension_effect(name),
-                SUPPORTED_EXTENSIONS.join(", ")
-            ));
-        }
     }
     Ok(())
 }
@@ -969,94 +904,6 @@ fn convert_material(m: &gltf::Material) -> Material {
         base_color_texture: None,
         emissive_texture: None,
     }
-}
-
-/// A KHR_lights_punctual light placed by its node: at the node's origin, pointing down its −Z.
-/// Its intensity stays in the file's photometric units (cd, lx), converted when lights are built;
-/// `range` is ignored (physical inverse-square falloff everywhere).
-fn convert_light(light: &gltf::khr_lights_punctual::Light, world: &Mat4) -> PunctualLight {
-    use gltf::khr_lights_punctual::Kind;
-    let kind = match light.kind() {
-        Kind::Point => PunctualKind::Point,
-        Kind::Directional => PunctualKind::Directional,
-        Kind::Spot {
-            inner_cone_angle,
-            outer_cone_angle,
-        } => {
-            let outer = outer_cone_angle.clamp(0.0, std::f32::consts::FRAC_PI_2);
-            let inner = inner_cone_angle.clamp(0.0, outer);
-            PunctualKind::Spot {
-                cos_inner: inner.cos(),
-                cos_outer: outer.cos(),
-            }
-        }
-    };
-    PunctualLight {
-        kind,
-        position: world.transform_point3(Vec3::ZERO),
-        direction: world.transform_vector3(-Vec3::Z).normalize_or(-Vec3::Z),
-        intensity: Vec3::from(light.color()) * light.intensity(),
-    }
-}
-
-type CameraNode<'a> = (gltf::Node<'a>, gltf::Camera<'a>, Mat4);
-
-/// A camera node as a [`Camera`] (None when its projection is degenerate: zero field of view
-/// or magnification, or a transform that collapses its view direction).
-fn convert_camera((node, cam, world): &CameraNode) -> Option<Camera> {
-    let name = node.name().or(cam.name()).unwrap_or("").to_string();
-    match cam.projection() {
-        Projection::Perspective(p) => {
-            Camera::from_world_matrix(name, world, p.yfov(), p.aspect_ratio())
-        }
-        Projection::Orthographic(o) => Camera::orthographic(name, world, o.xmag(), o.ymag()),
-    }
-}
-
-/// "0 'near' (perspective), 1 'top' (orthographic)": the cameras a `--camera` may name.
-fn list_cameras(cameras: &[CameraNode]) -> String {
-    if cameras.is_empty() {
-        return "the scene has no camera".into();
-    }
-    let list: Vec<String> = cameras
-        .iter()
-        .enumerate()
-        .map(|(i, (node, cam, _))| {
-            let name = node
-                .name()
-                .or(cam.name())
-                .map_or(String::new(), |n| format!(" '{n}'"));
-            let kind = match cam.projection() {
-                Projection::Perspective(_) => "perspective",
-                Projection::Orthographic(_) => "orthographic",
-            };
-            format!("{i}{name} ({kind})")
-        })
-        .collect();
-    format!("the scene's cameras: {}", list.join(", "))
-}
-
-fn choose_camera(cameras: &[CameraNode], choice: &CameraChoice) -> Result<Option<Camera>, String> {
-    let chosen = match choice {
-        CameraChoice::First => return Ok(cameras.iter().find_map(convert_camera)),
-        CameraChoice::Index(i) => cameras
-            .get(*i)
-            .ok_or_else(|| format!("--camera {i}: no such camera; {}", list_cameras(cameras)))?,
-        CameraChoice::Name(name) => cameras
-            .iter()
-            .find(|(n, c, _)| n.name() == Some(name) || c.name() == Some(name))
-            .ok_or_else(|| {
-                format!(
-                    "--camera '{name}': no camera node or camera of that name; {}",
-                    list_cameras(cameras)
-                )
-            })?,
-    };
-    convert_camera(chosen).map(Some).ok_or_else(|| {
-        "the chosen camera is degenerate (zero field of view or magnification, or a transform \
-         without a view direction)"
-            .into()
-    })
 }
 
 #[cfg(test)]

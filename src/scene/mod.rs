@@ -7,6 +7,8 @@
 mod camera;
 pub mod generate;
 pub mod generate_sky;
+mod gltf_camera;
+mod gltf_extensions;
 mod gltf_load;
 pub mod gltf_write;
 pub mod texture;
