@@ -32,12 +32,12 @@ fn shading_points(scene: &Scene, accel: &Accel) -> Vec<ShadingContext> {
     let mut points = Vec::new();
     for j in 0..32 {
         for i in 0..32 {
-            let dir = camera.direction(i as f32 + 0.5, j as f32 + 0.5, 32, 32);
-            if let Some(hit) = accel.closest_hit(camera.position, dir, f32::INFINITY) {
+            let (origin, dir) = camera.ray(i as f32 + 0.5, j as f32 + 0.5, 32, 32);
+            if let Some(hit) = accel.closest_hit(origin, dir, f32::INFINITY) {
                 let n = scene.triangles[hit.triangle as usize].geometric_normal();
                 let n = if n.dot(dir) > 0.0 { -n } else { n };
                 points.push(ShadingContext {
-                    p: camera.position + dir * hit.t,
+                    p: origin + dir * hit.t,
                     n,
                 });
             }

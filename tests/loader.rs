@@ -8,7 +8,7 @@ use glam::Vec3;
 use manylights::lights::Lights;
 use manylights::scene::generate;
 use manylights::scene::gltf_write::{GltfBuilder, Material, NodeTransform};
-use manylights::scene::{load_gltf, CameraChoice, LoadError};
+use manylights::scene::{load_gltf, CameraChoice, LoadError, Projection};
 
 mod common;
 use common::{write_gltf, U16, U32, U8};
@@ -37,7 +37,10 @@ fn cornell_loads_with_its_transforms_applied() {
     let camera = scene.camera.unwrap();
     assert!(close(camera.position, Vec3::new(0.0, 1.0, 3.4)));
     assert!(close(camera.forward, -Vec3::Z));
-    assert!((camera.yfov - 40f32.to_radians()).abs() < 1e-5);
+    let Projection::Perspective { yfov } = camera.projection else {
+        panic!("a perspective camera")
+    };
+    assert!((yfov - 40f32.to_radians()).abs() < 1e-5);
 }
 
 #[test]
@@ -196,7 +199,11 @@ fn cameras_are_chosen_by_index_or_name() {
         "{err}"
     );
     let err = z_of(CameraChoice::Index(2)).unwrap_err();
-    assert!(err.to_string().contains("2 camera node(s)"), "{err}");
+    assert!(
+        err.to_string()
+            .contains("0 'near' (perspective), 1 'far' (perspective)"),
+        "{err}"
+    );
     // Resolution follows the camera's aspect ratio (2.0) unless --height is given.
     let scene = load_gltf(&path, &CameraChoice::First).unwrap();
     assert_eq!(scene.camera.unwrap().resolution(300, None), (300, 150));

@@ -9,7 +9,7 @@ use std::path::PathBuf;
 use anyhow::Context;
 use clap::Args;
 
-use super::options::{check_resolution, RenderOptionsArgs, RENDER_DEFAULTS};
+use super::options::{check_resolution, RenderOptionsArgs, TEXTBOOK_DEFAULTS};
 use super::output::{check_output_folder, check_output_path};
 use super::reference::{lit_mask_for, obtain_reference};
 use super::{BadInput, UsageError};
@@ -178,7 +178,7 @@ fn or<T: Clone>(values: &[T], default: T) -> Vec<T> {
 /// swept for the resampling strategies only (the others take M = 1).
 pub fn estimators(args: &BenchArgs) -> Result<Vec<EstimatorChoice>, UsageError> {
     let o = &args.options;
-    let d = RENDER_DEFAULTS.estimator;
+    let d = TEXTBOOK_DEFAULTS.estimator;
     let kn = if args.kn.is_empty() {
         let mut kn = Vec::new();
         for k in or(&o.k, d.k) {
@@ -271,6 +271,7 @@ pub fn run_bench(args: &BenchArgs) -> anyhow::Result<()> {
         o.height,
         &o.allow_external_files,
     )?
+    .with_punctual_units(o.punctual_units)
     .with_environment(o.environment()?);
     check_resolution(setup.width, setup.height)?;
     let externals = read_externals(&args.external, setup.width, setup.height)?;

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use super::options::{check_resolution, RenderOptionsArgs, RENDER_DEFAULTS};
+use super::options::{check_resolution, RenderOptionsArgs, TEXTBOOK_DEFAULTS};
 use super::output::check_output_path;
 use super::reference::{lit_mask_for, obtain_reference};
 use super::UsageError;
@@ -57,7 +57,7 @@ pub fn run_converge(args: &ConvergeArgs) -> anyhow::Result<bool> {
         return Err(UsageError("converge needs at least two distinct --spp values".into()).into());
     }
     let opts = ConvergeOptions {
-        estimator: o.estimator(&RENDER_DEFAULTS)?,
+        estimator: o.estimator(&TEXTBOOK_DEFAULTS)?,
         spp,
         seeds: args.seeds,
         seed: o.seed,
@@ -71,6 +71,7 @@ pub fn run_converge(args: &ConvergeArgs) -> anyhow::Result<bool> {
         o.height,
         &o.allow_external_files,
     )?
+    .with_punctual_units(o.punctual_units)
     .with_environment(o.environment()?);
     check_resolution(setup.width, setup.height)?;
     let pool = o.thread_pool()?;

@@ -5,8 +5,8 @@ use std::path::PathBuf;
 use clap::Args;
 
 use crate::lights::power_stats::PowerStats;
-use crate::lights::Lights;
-use crate::scene::{load_gltf_allowing, CameraChoice};
+use crate::lights::{luminance, punctual, Light, Lights};
+use crate::scene::{load_gltf_allowing, CameraChoice, PunctualKind, PunctualUnits, Scene};
 
 #[derive(Args, Debug)]
 pub struct InfoArgs {
@@ -15,6 +15,9 @@ pub struct InfoArgs {
     /// Camera node index (in scene order) or name.
     #[arg(long)]
     pub camera: Option<CameraChoice>,
+    /// Units of KHR_lights_punctual intensities (as for render).
+    #[arg(long, value_enum, default_value_t = PunctualUnits::Photometric)]
+    pub punctual_units: PunctualUnits,
     /// Also read the scene's external files (buffers, images) from inside this folder
     /// (repeatable).
     #[arg(long, value_name = "DIR", value_parser = super::options::existing_folder)]
@@ -23,7 +26,8 @@ pub struct InfoArgs {
 
 pub fn run(args: &InfoArgs) -> anyhow::Result<()> {
     let camera = args.camera.clone().unwrap_or_default();
-    let scene = load_gltf_allowing(&args.scene, &camera, &args.allow_external_files)?;
+    let scene = load_gltf_allowing(&args.scene, &camera, &args.allow_external_files)?
+        .with_punctual_units(args.punctual_units);
     let lights = Lights::from_scene(&scene);
     let two_sided = lights.triangles().filter(|l| l.two_sided).count();
     let (lo, hi) = scene.bounds();
@@ -31,12 +35,20 @@ pub fn run(args: &InfoArgs) -> anyhow::Result<()> {
     println!("triangles          {}", scene.triangles.len());
     println!(
         "emissive triangles {} ({} two-sided)",
-        lights.len(),
+        lights.triangle_count(),
         two_sided
     );
+    let triangle_power = lights.triangles().fold(0.0, |sum, t| sum + t.power());
+    println!("triangle power     {triangle_power:.6e} W (Φ = π·A·luminance, ×2 two-sided)");
+    print_punctual(&scene);
     println!(
-        "total power        {:.6e} W (Φ = π·A·luminance, ×2 two-sided)",
-        lights.total_power()
+        "total power        {:.6e} W (every light{})",
+        lights.total_power(),
+        if scene.environment.is_some() {
+            ", environment included"
+        } else {
+            ""
+        }
     );
     println!("materials          {}", scene.materials.len());
     if !scene.textures.is_empty() {
@@ -62,19 +74,11 @@ pub fn run(args: &InfoArgs) -> anyhow::Result<()> {
         lo.x, lo.y, lo.z, hi.x, hi.y, hi.z
     );
     match &scene.camera {
-        Some(c) => println!(
-            "camera             '{}' at [{:.3}, {:.3}, {:.3}] looking [{:.3}, {:.3}, {:.3}], yfov {:.2}°, aspect {}",
-            c.name,
-            c.position.x,
-            c.position.y,
-            c.position.z,
-            c.forward.x,
-            c.forward.y,
-            c.forward.z,
-            c.yfov.to_degrees(),
-            c.aspect_ratio.map_or("from --width/--height".into(), |a| format!("{a:.4}"))
+        Some(c) => println!("camera             {}", c.describe()),
+        None => println!(
+            "camera             none (render frames the bounds: {})",
+            crate::scene::Camera::FRAMING_DIRECTION_TEXT
         ),
-        None => println!("camera             none (render frames the bounds from +Z)"),
     }
     if let Some(p) = PowerStats::of(&lights) {
         println!(
@@ -97,4 +101,45 @@ pub fn run(args: &InfoArgs) -> anyhow::Result<()> {
         s.degenerate_triangles, s.skipped_primitives
     );
     Ok(())
+}
+
+/// One line per KHR_lights_punctual light: kind, colour × intensity in the file's units, and the
+/// power the light selectors give it (W).
+fn print_punctual(scene: &Scene) {
+    if scene.punctual.is_empty() {
+        return;
+    }
+    let units = scene.punctual_units;
+    println!(
+        "punctual lights    {} ({} units{})",
+        scene.punctual.len(),
+        match units {
+            PunctualUnits::Photometric => "photometric",
+            PunctualUnits::Radiometric => "radiometric",
+        },
+        match units {
+            PunctualUnits::Photometric => ", ÷ 683 lm/W to W/sr and W/m²",
+            PunctualUnits::Radiometric => "",
+        }
+    );
+    let (lo, hi) = scene.bounds();
+    let radius = 0.5 * (hi - lo).length();
+    for (i, l) in scene.punctual.iter().enumerate() {
+        let (kind, formula) = match l.kind {
+            PunctualKind::Point => ("point", "4π·I"),
+            PunctualKind::Spot { .. } => ("spot", "cone solid angle·I"),
+            PunctualKind::Directional => ("directional", "π·R²·E over the scene's bounding sphere"),
+        };
+        let power = match punctual::from_punctual(l, radius, units) {
+            Light::Point(p) => p.power(),
+            Light::Directional(d) => d.power(),
+            _ => 0.0,
+        };
+        let [r, g, b] = l.intensity.to_array();
+        println!(
+            "  {i:<3} {kind:<11} colour × intensity [{r:.4e}, {g:.4e}, {b:.4e}] {} (luminance {:.4e}), power {power:.4e} W ({formula})",
+            units.unit(l.kind),
+            luminance(l.intensity),
+        );
+    }
 }

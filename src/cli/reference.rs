@@ -96,6 +96,7 @@ pub fn run(args: &ReferenceArgs) -> anyhow::Result<()> {
         o.height,
         &o.allow_external_files,
     )?
+    .with_punctual_units(o.punctual_units)
     .with_environment(o.environment()?);
     check_resolution(setup.width, setup.height)?;
     let options = ReferenceOptions {

@@ -129,10 +129,11 @@ fn render_scene(
         &o.camera.clone().unwrap_or_default(),
         &o.allow_external_files,
     )?
+    .with_punctual_units(o.punctual_units)
     .with_environment(o.environment()?);
     seconds.load = t.elapsed().as_secs_f64();
 
-    let camera = camera_or_framing(&scene, &o.scene);
+    let camera = camera_or_framing(&scene, &o.scene, o.width, o.height);
     let (width, height) = camera.resolution(o.width, o.height);
     check_resolution(width, height)?;
 

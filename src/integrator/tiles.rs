@@ -120,9 +120,9 @@ fn render_tile(
             for s in 0..opts.spp {
                 let cs = pixel_sampler.camera_sample(s);
                 let [jx, jy] = cs.pixel_jitter();
-                let dir = camera.direction(x as f32 + jx, y as f32 + jy, w, h);
+                let (origin, dir) = camera.ray(x as f32 + jx, y as f32 + jy, w, h);
                 let surface_hits = stats.rays.surface_hits;
-                let l = estimator.radiance(camera.position, dir, &cs, &mut stats.rays);
+                let l = estimator.radiance(origin, dir, &cs, &mut stats.rays);
                 stats.camera_samples += 1;
                 match classify(l) {
                     SampleClass::Finite => {

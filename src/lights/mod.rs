@@ -108,7 +108,7 @@ impl Lights {
             scene
                 .punctual
                 .iter()
-                .map(|l| punctual::from_punctual(l, radius)),
+                .map(|l| punctual::from_punctual(l, radius, scene.punctual_units)),
         );
         if let Some(map) = &scene.environment {
             lights.push(Light::Environment(EnvironmentLight {

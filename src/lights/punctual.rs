@@ -1,11 +1,16 @@
 //! Delta lights from KHR_lights_punctual: point and spot lights (radiant intensity I, W/sr) and
 //! directional lights (irradiance E, W/m², at infinity). Each is sampled exactly: one direction,
 //! no pdf, so their N in the K×N estimator is 1.
+//!
+//! glTF gives luminous intensity (cd) and illuminance (lx); [`from_punctual`] divides them by
+//! the luminous efficacy 683 lm/W ([`crate::scene::LUMINOUS_EFFICACY`]) unless the scene says its
+//! values are already radiometric. A Blender light of Φ watts exported in the default lighting
+//! mode has I = Φ/(4π)·683 cd, so it comes back as Φ/(4π) W/sr: Φ watts again.
 
 use glam::Vec3;
 
 use super::luminance;
-use crate::scene::{PunctualKind, PunctualLight};
+use crate::scene::{PunctualKind, PunctualLight, PunctualUnits};
 
 /// What a delta light delivers to a point: direction toward the light, distance (infinite for
 /// directional lights) and the incident quantity that multiplies f·cosθ (I·falloff/r², or E).
@@ -91,12 +96,14 @@ impl DirectionalLight {
     }
 }
 
-/// Converts a scene's punctual light; `scene_radius` sizes directional lights' power.
-pub fn from_punctual(l: &PunctualLight, scene_radius: f32) -> super::Light {
+/// Converts a scene's punctual light, its intensity in `units`, to W/sr or W/m²;
+/// `scene_radius` sizes directional lights' power.
+pub fn from_punctual(l: &PunctualLight, scene_radius: f32, units: PunctualUnits) -> super::Light {
+    let intensity = l.intensity * units.to_radiometric();
     match l.kind {
         PunctualKind::Point => super::Light::Point(PointLight {
             position: l.position,
-            intensity: l.intensity,
+            intensity,
             spot: None,
         }),
         PunctualKind::Spot {
@@ -104,12 +111,12 @@ pub fn from_punctual(l: &PunctualLight, scene_radius: f32) -> super::Light {
             cos_outer,
         } => super::Light::Point(PointLight {
             position: l.position,
-            intensity: l.intensity,
+            intensity,
             spot: Some((l.direction, cos_inner, cos_outer)),
         }),
         PunctualKind::Directional => super::Light::Directional(DirectionalLight {
             direction: l.direction,
-            irradiance: l.intensity,
+            irradiance: intensity,
             scene_radius,
         }),
     }
@@ -130,6 +137,40 @@ mod tests {
         assert_eq!(s.wi, Vec3::Y);
         assert_eq!(s.li, Vec3::splat(2.0));
         assert!((l.power() - 4.0 * std::f64::consts::PI * 8.0).abs() < 1e-4);
+    }
+
+    #[test]
+    fn photometric_units_divide_by_the_luminous_efficacy() {
+        // A Blender point light of 100 W exported in the default lighting mode: 100/(4π)·683 cd.
+        let cd = 100.0 / (4.0 * std::f32::consts::PI) * 683.0;
+        let l = PunctualLight {
+            kind: PunctualKind::Point,
+            position: Vec3::ZERO,
+            direction: -Vec3::Z,
+            intensity: Vec3::splat(cd),
+        };
+        let super::super::Light::Point(p) = from_punctual(&l, 1.0, PunctualUnits::Photometric)
+        else {
+            panic!("a point light")
+        };
+        assert!((p.power() - 100.0).abs() < 1e-3, "{} W", p.power());
+        let super::super::Light::Point(raw) = from_punctual(&l, 1.0, PunctualUnits::Radiometric)
+        else {
+            panic!("a point light")
+        };
+        assert_eq!(raw.intensity, Vec3::splat(cd));
+        // A sun of 3 W/m² written as 3·683 lx.
+        let sun = PunctualLight {
+            kind: PunctualKind::Directional,
+            intensity: Vec3::splat(3.0 * 683.0),
+            ..l
+        };
+        let super::super::Light::Directional(d) =
+            from_punctual(&sun, 1.0, PunctualUnits::Photometric)
+        else {
+            panic!("a directional light")
+        };
+        assert!((d.irradiance - Vec3::splat(3.0)).abs().max_element() < 1e-5);
     }
 
     #[test]

@@ -31,9 +31,9 @@ pub fn primary_surface_fractions(setup: &SceneSetup, grid: u32) -> Vec<f32> {
     let camera = &setup.camera;
     let scene = &setup.scene;
     let rays = (grid * grid) as f32;
-    let surface = |dir: Vec3| {
+    let surface = |(origin, dir): (Vec3, Vec3)| {
         accel
-            .closest_hit(camera.position, dir, f32::INFINITY)
+            .closest_hit(origin, dir, f32::INFINITY)
             .is_some_and(|hit| {
                 let tri = &scene.triangles[hit.triangle as usize];
                 !scene.materials[tri.material as usize].is_emissive()
@@ -48,7 +48,7 @@ pub fn primary_surface_fractions(setup: &SceneSetup, grid: u32) -> Vec<f32> {
                 for sx in 0..grid {
                     let u = x as f32 + (sx as f32 + 0.5) / grid as f32;
                     let v = y as f32 + (sy as f32 + 0.5) / grid as f32;
-                    hits += surface(camera.direction(u, v, w, h)) as u32;
+                    hits += surface(camera.ray(u, v, w, h)) as u32;
                 }
             }
             hits as f32 / rays

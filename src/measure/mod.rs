@@ -24,7 +24,8 @@ use crate::integrator::Strategy;
 use crate::lights::EnvironmentMap;
 use crate::sampling::sampler::SamplerKind;
 use crate::scene::{
-    load_gltf_bytes_allowing, read_scene_file, scene_folder, Camera, CameraChoice, Scene,
+    load_gltf_bytes_allowing, read_scene_file, scene_folder, Camera, CameraChoice, PunctualUnits,
+    Scene,
 };
 use crate::select::SelectorKind;
 
@@ -86,7 +87,7 @@ impl SceneSetup {
         let bytes = read_scene_file(path)?;
         let choice = camera.cloned().unwrap_or_default();
         let scene = load_gltf_bytes_allowing(&bytes, path, scene_folder(path), &choice, allowed)?;
-        let cam = camera_or_framing(&scene, path);
+        let cam = camera_or_framing(&scene, path, width, height);
         let (width, height) = cam.resolution(width, height);
         Ok(SceneSetup {
             path: path.into(),
@@ -101,6 +102,19 @@ impl SceneSetup {
             width,
             height,
         })
+    }
+
+    /// Reads the scene's punctual lights in `units`. The hash changes when photometric units
+    /// meet punctual lights, so that references rendered when their values were read as W/sr
+    /// and W/m² (the meaning of the file's hash before units existed) do not match.
+    pub fn with_punctual_units(mut self, units: PunctualUnits) -> SceneSetup {
+        if units == PunctualUnits::Photometric && !self.scene.punctual.is_empty() {
+            let mut bytes = self.hash.to_le_bytes().to_vec();
+            bytes.extend(b"photometric");
+            self.hash = fnv1a64(&bytes);
+        }
+        self.scene = self.scene.with_punctual_units(units);
+        self
     }
 
     /// Lights the scene with `environment`; the hash then covers the map's size, scaled texels
@@ -123,15 +137,20 @@ impl SceneSetup {
     }
 }
 
-/// The scene's camera, or one framing its bounds from +Z (with a note) when it has none.
-pub fn camera_or_framing(scene: &Scene, path: &Path) -> Camera {
+/// The scene's camera, or one framing its bounds for a `width × height` image (square without
+/// `height`) when it has none, with a note naming where it looks from.
+pub fn camera_or_framing(scene: &Scene, path: &Path, width: u32, height: Option<u32>) -> Camera {
     scene.camera.clone().unwrap_or_else(|| {
-        eprintln!(
-            "note: {} has no perspective camera; framing its bounds from +Z",
-            path.display()
-        );
         let (lo, hi) = scene.bounds();
-        Camera::framing(lo, hi)
+        let aspect = height.map_or(1.0, |h| width as f32 / h as f32);
+        let camera = Camera::framing(lo, hi, aspect);
+        eprintln!(
+            "note: {} has no camera; framing its bounds {}: {}",
+            path.display(),
+            Camera::FRAMING_DIRECTION_TEXT,
+            camera.describe()
+        );
+        camera
     })
 }
 

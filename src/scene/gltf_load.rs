@@ -14,39 +14,30 @@
 //! buffer view, a data URI or a file relative to the scene, into linear RGB with their sampler's
 //! wrap modes; min/mag filters are ignored (always bilinear). Only TEXCOORD_0 is supported: a
 //! texture read through another set is an error rather than a silently wrong picture. A missing,
-//! unreadable or undecodable image is an error naming the image and its file.
+//! unreadable or undecodable image is an error naming the image and its file. A reference's
+//! KHR_texture_transform (offset, rotation, scale, and its texCoord override) travels with the
+//! texture (see `texture.rs`); one image referenced with two transforms is decoded twice.
+//!
+//! Extensions: KHR_lights_punctual (intensities kept in the file's photometric units),
+//! KHR_materials_emissive_strength, KHR_materials_specular and KHR_texture_transform are
+//! implemented; a file requiring any other is refused with a message naming it and what it
+//! would change. Cameras: perspective and orthographic (`camera.rs`).
 
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
 use glam::{Mat3, Mat4, Vec2, Vec3};
 use gltf::accessor::{DataType, Dimensions};
-use gltf::camera::Projection;
 
+use super::gltf_camera::choose_camera;
+pub use super::gltf_camera::CameraChoice;
+use super::gltf_extensions::{check_required_extensions, convert_light};
 use super::gltf_files::{read_uri, FileAccess};
 use super::texture_decode::decode_image;
 use super::{
-    geometric_normal, Camera, LoadStats, Material, PunctualKind, PunctualLight, Scene, Texture,
-    Triangle, Wrap,
+    geometric_normal, LoadStats, Material, PunctualUnits, Scene, Texture, Triangle, UvTransform,
+    Wrap,
 };
-
-/// Which of the scene's perspective cameras to use, by position in node order or by name.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub enum CameraChoice {
-    #[default]
-    First,
-    Index(usize),
-    Name(String),
-}
-
-impl std::str::FromStr for CameraChoice {
-    type Err = std::convert::Infallible;
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        Ok(s.parse()
-            .map(CameraChoice::Index)
-            .unwrap_or_else(|_| CameraChoice::Name(s.into())))
-    }
-}
 
 /// Why a scene file could not be loaded; every variant names the file.
 #[derive(Debug, thiserror::Error)]
@@ -168,6 +159,7 @@ pub fn load_gltf_bytes_allowing(
         gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| format(e.to_string()))?;
     let root = document.into_json();
     check_unchecked_indices(&root).map_err(format)?;
+    check_required_extensions(&root).map_err(format)?;
     let document = gltf::Document::from_json(root).map_err(|e| format(e.to_string()))?;
     let invalid = |element: String, message: String| LoadError::Invalid {
         path: path.into(),
@@ -196,7 +188,7 @@ pub fn load_gltf_bytes_allowing(
         materials: Vec::new(),
         material_map: vec![None; document.materials().len() + 1],
         textures: Vec::new(),
-        texture_map: vec![None; document.textures().len()],
+        texture_map: std::collections::HashMap::new(),
     };
 
     let mut triangles = Vec::new();
@@ -263,6 +255,7 @@ pub fn load_gltf_bytes_allowing(
     let scene_element = format!("scene {}", scene.index());
     let mut scene = Scene::new(triangles, materials, camera)
         .and_then(|s| s.with_punctual(punctual))
+        .map(|s| s.with_punctual_units(PunctualUnits::Photometric))
         .and_then(|s| s.with_textures(textures))
         .map_err(|m| invalid(scene_element, m))?;
     scene.stats.skipped_primitives = stats.skipped_primitives;
@@ -441,8 +434,8 @@ struct Loader<'a> {
     /// glTF material index (last slot: the default material) → index into `materials`.
     material_map: Vec<Option<u32>>,
     textures: Vec<Texture>,
-    /// glTF texture index → index into `textures`.
-    texture_map: Vec<Option<u32>>,
+    /// (glTF texture index, its reference's uv transform as bits) → index into `textures`.
+    texture_map: std::collections::HashMap<(usize, Option<[u32; 6]>), u32>,
 }
 
 /// An error's element and message.
@@ -481,17 +474,42 @@ impl Loader<'_> {
         let Some(info) = info else {
             return Ok(None);
         };
-        if info.tex_coord() != 0 {
+        let transform = info.texture_transform().map(|t| {
+            UvTransform::from_offset_rotation_scale(
+                Vec2::from(t.offset()),
+                t.rotation(),
+                Vec2::from(t.scale()),
+            )
+        });
+        if transform.is_some_and(|t| !t.is_finite()) {
             return Err((
                 element(),
-                format!(
-                    "reads TEXCOORD_{}; only TEXCOORD_0 is supported",
-                    info.tex_coord()
-                ),
+                "KHR_texture_transform gives a non-finite offset, rotation or scale".into(),
+            ));
+        }
+        // KHR_texture_transform's texCoord overrides the reference's.
+        let set = info
+            .texture_transform()
+            .and_then(|t| t.tex_coord())
+            .unwrap_or(info.tex_coord());
+        if set != 0 {
+            return Err((
+                element(),
+                format!("reads TEXCOORD_{set}; only TEXCOORD_0 is supported"),
             ));
         }
         let texture = info.texture();
-        if let Some(i) = self.texture_map[texture.index()] {
+        let key = (
+            texture.index(),
+            transform.map(|t| {
+                [t.x_axis, t.y_axis, t.offset]
+                    .map(|v| v.to_array().map(f32::to_bits))
+                    .concat()
+                    .try_into()
+                    .expect("six numbers")
+            }),
+        );
+        if let Some(&i) = self.texture_map.get(&key) {
             return Ok(Some(i));
         }
         let image = texture.source();
@@ -533,10 +551,11 @@ impl Loader<'_> {
             convert_wrap(sampler.wrap_t()),
         ];
         let texture_out = Texture::new(decoded.width, decoded.height, decoded.texels, wrap)
-            .ok_or_else(|| (image_element, "texel count does not match its size".into()))?;
+            .ok_or_else(|| (image_element, "texel count does not match its size".into()))?
+            .with_transform(transform);
         let i = self.textures.len() as u32;
         self.textures.push(texture_out);
-        self.texture_map[texture.index()] = Some(i);
+        self.texture_map.insert(key, i);
         Ok(Some(i))
     }
 
@@ -839,62 +858,4 @@ fn convert_material(m: &gltf::Material) -> Material {
         base_color_texture: None,
         emissive_texture: None,
     }
-}
-
-/// A KHR_lights_punctual light placed by its node: at the node's origin, pointing down its −Z.
-/// glTF's photometric intensity (cd, lx) is read as radiometric (W/sr, W/m²); `range` is ignored
-/// (physical inverse-square falloff everywhere).
-fn convert_light(light: &gltf::khr_lights_punctual::Light, world: &Mat4) -> PunctualLight {
-    use gltf::khr_lights_punctual::Kind;
-    let kind = match light.kind() {
-        Kind::Point => PunctualKind::Point,
-        Kind::Directional => PunctualKind::Directional,
-        Kind::Spot {
-            inner_cone_angle,
-            outer_cone_angle,
-        } => {
-            let outer = outer_cone_angle.clamp(0.0, std::f32::consts::FRAC_PI_2);
-            let inner = inner_cone_angle.clamp(0.0, outer);
-            PunctualKind::Spot {
-                cos_inner: inner.cos(),
-                cos_outer: outer.cos(),
-            }
-        }
-    };
-    PunctualLight {
-        kind,
-        position: world.transform_point3(Vec3::ZERO),
-        direction: world.transform_vector3(-Vec3::Z).normalize_or(-Vec3::Z),
-        intensity: Vec3::from(light.color()) * light.intensity(),
-    }
-}
-
-type CameraNode<'a> = (gltf::Node<'a>, gltf::Camera<'a>, Mat4);
-
-fn choose_camera(cameras: &[CameraNode], choice: &CameraChoice) -> Result<Option<Camera>, String> {
-    let perspective = |(node, cam, world): &CameraNode| -> Option<Camera> {
-        match cam.projection() {
-            Projection::Perspective(p) => {
-                let name = node.name().or(cam.name()).unwrap_or("").to_string();
-                Camera::from_world_matrix(name, world, p.yfov(), p.aspect_ratio())
-            }
-            Projection::Orthographic(_) => None,
-        }
-    };
-    let chosen = match choice {
-        CameraChoice::First => return Ok(cameras.iter().find_map(perspective)),
-        CameraChoice::Index(i) => cameras.get(*i).ok_or_else(|| {
-            format!(
-                "--camera {i}: the scene has {} camera node(s)",
-                cameras.len()
-            )
-        })?,
-        CameraChoice::Name(name) => cameras
-            .iter()
-            .find(|(n, c, _)| n.name() == Some(name) || c.name() == Some(name))
-            .ok_or_else(|| format!("--camera '{name}': no camera node or camera of that name"))?,
-    };
-    perspective(chosen)
-        .map(Some)
-        .ok_or_else(|| "the chosen camera is not a valid perspective camera".into())
 }

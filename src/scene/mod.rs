@@ -7,18 +7,20 @@
 mod camera;
 pub mod generate;
 pub mod generate_sky;
+mod gltf_camera;
+mod gltf_extensions;
 mod gltf_files;
 mod gltf_load;
 pub mod gltf_write;
 pub mod texture;
 pub mod texture_decode;
 
-pub use camera::Camera;
+pub use camera::{Camera, Projection};
 pub use gltf_load::{
     load_gltf, load_gltf_allowing, load_gltf_bytes, load_gltf_bytes_allowing, read_scene_file,
     scene_folder, CameraChoice, LoadError, MAX_TRIANGLES,
 };
-pub use texture::{Texture, Wrap};
+pub use texture::{Texture, UvTransform, Wrap};
 
 use std::sync::Arc;
 
@@ -162,8 +164,46 @@ pub enum PunctualKind {
     Directional,
 }
 
-/// A KHR_lights_punctual light in world space. `intensity` = color × intensity, taken as
-/// radiant intensity (W/sr) for point and spot lights and irradiance (W/m²) for directional ones.
+/// Luminous efficacy K_m = 683 lm/W: the lumens per watt of 555 nm light, by which the SI defines
+/// the candela. KHR_lights_punctual's photometric intensities divided by it give the radiometric
+/// quantities we render with (cd → W/sr, lx → W/m²), the convention Blender's exporter follows.
+pub const LUMINOUS_EFFICACY: f32 = 683.0;
+
+/// The units a scene's [`PunctualLight::intensity`] values are in.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum PunctualUnits {
+    /// candela (point, spot) and lux (directional), as KHR_lights_punctual specifies; divided by
+    /// [`LUMINOUS_EFFICACY`] when lights are built.
+    #[default]
+    Photometric,
+    /// W/sr and W/m², taken as they are (files written for manylights before it read the
+    /// specification's units, and scenes built in code).
+    Radiometric,
+}
+
+impl PunctualUnits {
+    /// The factor from one unit of `intensity` to W/sr (point, spot) or W/m² (directional).
+    pub fn to_radiometric(self) -> f32 {
+        match self {
+            PunctualUnits::Photometric => 1.0 / LUMINOUS_EFFICACY,
+            PunctualUnits::Radiometric => 1.0,
+        }
+    }
+
+    /// The unit of a light's intensity, as written in reports.
+    pub fn unit(self, kind: PunctualKind) -> &'static str {
+        match (self, kind) {
+            (PunctualUnits::Photometric, PunctualKind::Directional) => "lx",
+            (PunctualUnits::Photometric, _) => "cd",
+            (PunctualUnits::Radiometric, PunctualKind::Directional) => "W/m²",
+            (PunctualUnits::Radiometric, _) => "W/sr",
+        }
+    }
+}
+
+/// A KHR_lights_punctual light in world space. `intensity` = color × intensity in the scene's
+/// [`PunctualUnits`]: luminous intensity or radiant intensity for point and spot lights,
+/// illuminance or irradiance for directional ones.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PunctualLight {
     pub kind: PunctualKind,
@@ -182,6 +222,9 @@ pub struct Scene {
     /// The camera the file chose (or None when the file has no perspective camera).
     pub camera: Option<Camera>,
     pub punctual: Vec<PunctualLight>,
+    /// The units of `punctual`'s intensities (glTF files: photometric unless the user says
+    /// otherwise; scenes built in code: radiometric).
+    pub punctual_units: PunctualUnits,
     /// The textures materials refer to, linear RGB.
     pub textures: Vec<Texture>,
     /// The environment map lighting the scene from infinitely far away (given on the command
@@ -225,6 +268,7 @@ impl Scene {
             materials,
             camera,
             punctual: Vec::new(),
+            punctual_units: PunctualUnits::Radiometric,
             textures: Vec::new(),
             environment: None,
             stats,
@@ -280,7 +324,7 @@ impl Scene {
         let m = self.material_of(triangle);
         match m.emissive_texture {
             Some(t) if m.is_emissive() => {
-                m.emission * self.textures[t as usize].sample_bilinear(self.uv_at(triangle, b1, b2))
+                m.emission * self.textures[t as usize].at(self.uv_at(triangle, b1, b2))
             }
             _ => m.emission,
         }
@@ -291,26 +335,29 @@ impl Scene {
     pub fn base_color_at(&self, triangle: usize, b1: f32, b2: f32) -> Vec3 {
         let m = self.material_of(triangle);
         match m.base_color_texture {
-            Some(t) => {
-                m.base_color
-                    * self.textures[t as usize].sample_bilinear(self.uv_at(triangle, b1, b2))
-            }
+            Some(t) => m.base_color * self.textures[t as usize].at(self.uv_at(triangle, b1, b2)),
             None => m.base_color,
         }
     }
 
     /// Mean emitted radiance of `triangle` over its surface: emission factor × the emissive
     /// texture's mean over the triangle's uv footprint (see
-    /// [`Texture::average_over_uv_triangle`]); the factor alone when untextured.
+    /// [`Texture::footprint_mean`]); the factor alone when untextured.
     pub fn mean_emission(&self, triangle: usize) -> Vec3 {
         let m = self.material_of(triangle);
         match m.emissive_texture {
             Some(t) if m.is_emissive() => {
                 let uvs = self.triangles[triangle].uvs;
-                m.emission * self.textures[t as usize].average_over_uv_triangle(uvs)
+                m.emission * self.textures[t as usize].footprint_mean(uvs)
             }
             _ => m.emission,
         }
+    }
+
+    /// Reads the punctual lights' intensities in `units`.
+    pub fn with_punctual_units(mut self, units: PunctualUnits) -> Scene {
+        self.punctual_units = units;
+        self
     }
 
     /// Lights the scene with an environment map (None: no environment).

@@ -7,6 +7,12 @@
 //!     f(s, t) = t₀₀(1−s)(1−t) + t₁₀·s(1−t) + t₀₁(1−s)·t + t₁₁·s·t,   (s, t) = (x − i, y − j),
 //! whose corner texels are wrapped by the sampler's mode. glTF's minification and magnification
 //! filters are ignored: every lookup is bilinear on the full-resolution image (no mipmaps).
+//!
+//! A texture reference may carry KHR_texture_transform: the mesh's uv is mapped by the affine
+//!     uv' = offset + R(θ)·(scale ⊙ uv),   R(θ) = [[cos θ, sin θ], [−sin θ, cos θ]]
+//! before the lookup (θ turns the uvs counter-clockwise, i.e. the image clockwise, in glTF's
+//! v-down image space). An affine map takes a triangle's uv footprint to a triangle, so the
+//! footprint mean is the same integral over the mapped triangle.
 
 use glam::{DVec2, DVec3, Vec2, Vec3};
 
@@ -69,7 +75,37 @@ const MAX_FOOTPRINT_CELLS: f64 = (1u64 << 24) as f64;
 /// bilinear support meets the footprint, so that a triangle that can emit never gets zero power.
 pub const FOOTPRINT_FLOOR: f64 = 1e-6;
 
-/// An image of linear RGB texels with its sampler's wrap modes (u, v).
+/// KHR_texture_transform's affine map of texture coordinates: uv' = u·x_axis + v·y_axis + offset.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct UvTransform {
+    pub x_axis: Vec2,
+    pub y_axis: Vec2,
+    pub offset: Vec2,
+}
+
+impl UvTransform {
+    /// offset + R(rotation)·(scale ⊙ uv), glTF's translation × rotation × scale.
+    pub fn from_offset_rotation_scale(offset: Vec2, rotation: f32, scale: Vec2) -> UvTransform {
+        let (sin, cos) = rotation.sin_cos();
+        UvTransform {
+            x_axis: scale.x * Vec2::new(cos, -sin),
+            y_axis: scale.y * Vec2::new(sin, cos),
+            offset,
+        }
+    }
+
+    #[inline]
+    pub fn apply(&self, uv: Vec2) -> Vec2 {
+        uv.x * self.x_axis + uv.y * self.y_axis + self.offset
+    }
+
+    pub fn is_finite(&self) -> bool {
+        self.x_axis.is_finite() && self.y_axis.is_finite() && self.offset.is_finite()
+    }
+}
+
+/// An image of linear RGB texels with its sampler's wrap modes (u, v), and the transform its
+/// material reference applies to mesh uvs (None: the identity).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Texture {
     pub width: u32,
@@ -77,6 +113,7 @@ pub struct Texture {
     /// Row-major, row 0 at v = 0.
     pub texels: Vec<Vec3>,
     pub wrap: [Wrap; 2],
+    pub transform: Option<UvTransform>,
 }
 
 /// A convex polygon of at most 7 vertices: a triangle clipped by four axis-aligned half-planes.
@@ -162,7 +199,32 @@ impl Texture {
             height,
             texels,
             wrap,
+            transform: None,
         })
+    }
+
+    /// The same texture read through `transform` (None: the identity).
+    pub fn with_transform(mut self, transform: Option<UvTransform>) -> Texture {
+        self.transform = transform;
+        self
+    }
+
+    /// The texture at a mesh texture coordinate: the transform, then the bilinear lookup.
+    #[inline]
+    pub fn at(&self, uv: Vec2) -> Vec3 {
+        match &self.transform {
+            None => self.sample_bilinear(uv),
+            Some(t) => self.sample_bilinear(t.apply(uv)),
+        }
+    }
+
+    /// The mean of [`Texture::at`] over a triangle whose vertices have mesh uvs `uv`: the
+    /// filtered texture's mean over the transformed footprint.
+    pub fn footprint_mean(&self, uv: [Vec2; 3]) -> Vec3 {
+        match &self.transform {
+            None => self.average_over_uv_triangle(uv),
+            Some(t) => self.average_over_uv_triangle(uv.map(|p| t.apply(p))),
+        }
     }
 
     /// The texel that integer texel coordinates (i, j) read under the wrap modes.
