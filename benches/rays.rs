@@ -10,8 +10,9 @@
 //!
 //! Scenes: `scenes/cornell.glb`, `scenes/town.glb`, and the generated `city` with 50,000 emitters
 //! (seed 1, as `manylights gen city`); with `MANYLIGHTS_BENCH_1M=1` also the 1,000,000-emitter
-//! city. Criterion reports each set's time with its ray count as throughput (elements/s = rays/s
-//! on one core).
+//! city. Time is the benchmark thread's CPU time (`CLOCK_THREAD_CPUTIME_ID`), so that other
+//! processes on a shared machine inflate it less than wall time; criterion reports it per pass
+//! over a set with the set's ray count as throughput (elements/s = rays/s on one core).
 //!
 //! With `MANYLIGHTS_DUMP_RAYS=DIR` the bench also writes, per scene, `DIR/<scene>/triangles.bin`
 //! (n × 9 little-endian f32: the vertices of each triangle) and `DIR/<scene>/<set>.bin` (n × 7 f32:
@@ -23,6 +24,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
+use criterion::measurement::{Measurement, ValueFormatter};
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use glam::Vec3;
 use manylights::accel::{offset_ray_origin, Accel};
@@ -30,6 +32,65 @@ use manylights::scene::generate::city;
 use manylights::scene::{load_gltf, load_gltf_bytes, Camera, Scene};
 use rand_core::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
+
+/// CPU time of the calling thread, in nanoseconds.
+struct ThreadCpuTime;
+
+fn thread_cpu_ns() -> u64 {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: `ts` is a valid timespec for the call to write.
+    let status = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
+    assert_eq!(status, 0, "clock_gettime(CLOCK_THREAD_CPUTIME_ID) failed");
+    ts.tv_sec as u64 * 1_000_000_000 + ts.tv_nsec as u64
+}
+
+impl Measurement for ThreadCpuTime {
+    type Intermediate = u64;
+    type Value = u64;
+    fn start(&self) -> u64 {
+        thread_cpu_ns()
+    }
+    fn end(&self, start: u64) -> u64 {
+        thread_cpu_ns() - start
+    }
+    fn add(&self, a: &u64, b: &u64) -> u64 {
+        a + b
+    }
+    fn zero(&self) -> u64 {
+        0
+    }
+    fn to_f64(&self, value: &u64) -> f64 {
+        *value as f64
+    }
+    fn formatter(&self) -> &dyn ValueFormatter {
+        &CpuFormatter
+    }
+}
+
+/// Shows CPU times in ms and element throughputs in M/s (values arrive in ns).
+struct CpuFormatter;
+
+impl ValueFormatter for CpuFormatter {
+    fn scale_values(&self, _typical: f64, values: &mut [f64]) -> &'static str {
+        values.iter_mut().for_each(|v| *v *= 1e-6);
+        "ms (CPU)"
+    }
+    fn scale_throughputs(&self, _typical: f64, t: &Throughput, values: &mut [f64]) -> &'static str {
+        let per_pass = match *t {
+            Throughput::Elements(n) | Throughput::Bytes(n) | Throughput::BytesDecimal(n) => n,
+            Throughput::Bits(n) => n,
+            Throughput::ElementsAndBytes { elements, .. } => elements,
+        } as f64;
+        values.iter_mut().for_each(|v| *v = per_pass * 1e3 / *v);
+        "M/s (CPU)"
+    }
+    fn scale_for_machines(&self, _values: &mut [f64]) -> &'static str {
+        "ns"
+    }
+}
 
 /// Width of the image whose camera rays are recorded (height from the camera's aspect).
 const WIDTH: u32 = 256;
@@ -186,7 +247,7 @@ fn dump(dir: &Path, scene_name: &str, scene: &Scene, sets: &[RaySet]) {
     }
 }
 
-fn bench_scene(c: &mut Criterion, name: &str, scene: &Scene) {
+fn bench_scene(c: &mut Criterion<ThreadCpuTime>, name: &str, scene: &Scene) {
     let accel = Accel::build(scene);
     let sets = record(scene, &accel, 7);
     if let Some(dir) = std::env::var_os("MANYLIGHTS_DUMP_RAYS") {
@@ -207,7 +268,7 @@ fn bench_scene(c: &mut Criterion, name: &str, scene: &Scene) {
     group.finish();
 }
 
-fn rays(c: &mut Criterion) {
+fn rays(c: &mut Criterion<ThreadCpuTime>) {
     bench_scene(c, "cornell", &shipped("cornell"));
     bench_scene(c, "town", &shipped("town"));
     bench_scene(c, "city50k", &generated_city(50_000));
@@ -216,5 +277,9 @@ fn rays(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, rays);
+criterion_group! {
+    name = benches;
+    config = Criterion::default().with_measurement(ThreadCpuTime);
+    targets = rays
+}
 criterion_main!(benches);

@@ -223,9 +223,10 @@ impl Accel {
 
 /// Up to this many triangles the BVH is built with obvhs's most thorough preset (pre-splitting,
 /// reinsertion over all nodes); larger scenes use the medium preset, whose build time stays near
-/// linear. `cargo bench --bench rays`, town (12k triangles): very slow build 73 ms against 15 ms
-/// for medium, rays/s +13 to +24%; 50k city (97k triangles): 513 ms against 159 ms, +20 to +33%.
-const THOROUGH_BUILD_MAX_TRIANGLES: usize = 1 << 17;
+/// linear. Town (12k triangles): 73 ms against 15 ms to build, rays/s +13 to +35% with the new
+/// triangle test (`cargo bench --bench rays`, thread CPU time); on the 50k city (97k triangles)
+/// the thorough build took 513 ms against 159 ms for a gain within the noise, so it stops here.
+const THOROUGH_BUILD_MAX_TRIANGLES: usize = 1 << 15;
 
 fn build_preset(triangles: usize) -> BvhBuildParams {
     if triangles <= THOROUGH_BUILD_MAX_TRIANGLES {
