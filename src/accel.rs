@@ -351,7 +351,7 @@ mod tests {
             let [p0, p1, p2] = tri.positions.map(|p| p.as_dvec3());
             let n = (p1 - p0).cross(p2 - p0);
             let t = n.dot(p0 - o) / n.dot(d);
-            if !(t > 0.0) || best.is_some_and(|b| b.1 <= t) {
+            if t.is_nan() || t <= 0.0 || best.is_some_and(|b| b.1 <= t) {
                 continue;
             }
             let x = o + t * d;
