@@ -160,7 +160,7 @@ fn record(scene: &Scene, accel: &Accel, seed: u64) -> [RaySet; 3] {
     let camera = scene
         .camera
         .clone()
-        .unwrap_or_else(|| Camera::framing(lo, hi));
+        .unwrap_or_else(|| Camera::framing(lo, hi, 1.0));
     let (width, height) = camera.resolution(WIDTH, None);
     let emitters: Vec<usize> = (0..scene.triangles.len())
         .filter(|&i| scene.material_of(i).is_emissive())
@@ -171,9 +171,9 @@ fn record(scene: &Scene, accel: &Accel, seed: u64) -> [RaySet; 3] {
     for y in 0..height {
         for x in 0..width {
             let (jx, jy) = (uniform(&mut rng), uniform(&mut rng));
-            let dir = camera.direction(x as f32 + jx, y as f32 + jy, width, height);
-            cam.push(camera.position, dir, f32::INFINITY);
-            let Some(hit) = accel.closest_hit(camera.position, dir, f32::INFINITY) else {
+            let (origin, dir) = camera.ray(x as f32 + jx, y as f32 + jy, width, height);
+            cam.push(origin, dir, f32::INFINITY);
+            let Some(hit) = accel.closest_hit(origin, dir, f32::INFINITY) else {
                 continue;
             };
             let tri = &scene.triangles[hit.triangle as usize];
