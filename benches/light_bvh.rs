@@ -3,7 +3,7 @@
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
 use glam::Vec3;
-use manylights::select::light_bvh::{LightBounds, LightBvh};
+use manylights::select::light_tree::{LightBounds, LightBvh};
 use rand_core::Rng;
 use rand_pcg::Pcg32;
 use std::hint::black_box;

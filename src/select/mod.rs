@@ -6,9 +6,9 @@
 //! importance (Conty Estevez & Kulla 2018), directional lights chosen outside the tree by power.
 //! `oracle`: p_l ∝ each light's exact unshadowed contribution to a diffuse receiver (O(L)).
 
-mod bvh;
+mod tree_selector;
 // `!(x > 0.0)` is the BVH's deliberate NaN-rejecting test.
-pub mod light_bvh;
+pub mod light_tree;
 pub mod oracle;
 
 use glam::Vec3;
@@ -16,7 +16,7 @@ use glam::Vec3;
 use crate::lights::Lights;
 use crate::sampling::alias::AliasTable;
 
-pub use bvh::BvhSelector;
+pub use tree_selector::BvhSelector;
 
 /// Which selector to build.
 #[derive(

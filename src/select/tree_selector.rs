@@ -7,7 +7,7 @@
 
 use glam::Vec3;
 
-use super::light_bvh::{LightBounds, LightBvh};
+use super::light_tree::{LightBounds, LightBvh};
 use super::ShadingContext;
 use crate::lights::{Light, Lights};
 

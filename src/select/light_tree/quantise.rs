@@ -1,0 +1,135 @@
+//! Compact coding of node bounds: box corners as 16-bit codes on a grid spanning
+//! the root box (rounded outwards), cosines as 15-bit codes (rounded down), the
+//! cone axis as a 2×16-bit octahedral code with θo widened by its coding error.
+//! Every rounding enlarges the bound, so a node never loses a reachable light.
+
+use glam::{Vec3, Vec3A};
+
+use super::*;
+
+/// Grid on which node boxes are stored: coordinate k of code q decodes to
+/// `origin[k] + q · step[k]`, q = 0 ..= 65535, and code 65535 reaches at least
+/// the root box's upper corner.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Grid {
+    pub(super) origin: Vec3A,
+    pub(super) step: Vec3A,
+    /// 1/step (0 along axes without extent), for first guesses only.
+    pub(super) inv_step: Vec3A,
+}
+
+impl Grid {
+    pub(super) fn new(lo: Vec3, hi: Vec3) -> Grid {
+        let step = |k: usize| {
+            let mut s = ((f64::from(hi[k]) - f64::from(lo[k])) / f64::from(BOX_MAX)) as f32;
+            while lo[k] + BOX_MAX as f32 * s < hi[k] {
+                s = s.next_up();
+            }
+            s
+        };
+        let step = Vec3A::new(step(0), step(1), step(2));
+        Grid {
+            origin: lo.into(),
+            step,
+            inv_step: Vec3A::select(step.cmpgt(Vec3A::ZERO), step.recip(), Vec3A::ZERO)
+                .min(Vec3A::splat(f32::MAX)),
+        }
+    }
+
+    pub(super) fn decode(&self, q: [u16; 3]) -> Vec3 {
+        let q = Vec3A::new(f32::from(q[0]), f32::from(q[1]), f32::from(q[2]));
+        (self.origin + q * self.step).into()
+    }
+
+    /// Codes whose decoding is ≤ `x` (`up` false) or ≥ `x` (`up` true): a
+    /// first guess rounded down (up), then stepped until the decoding
+    /// arithmetic itself confirms the rounding direction.
+    pub(super) fn encode(&self, x: Vec3, up: bool) -> [u16; 3] {
+        let x = Vec3A::from(x);
+        let top = Vec3A::splat(BOX_MAX as f32);
+        let guess = ((x - self.origin) * self.inv_step).clamp(Vec3A::ZERO, top);
+        let mut q = if up { guess.ceil() } else { guess.floor() };
+        loop {
+            let at = self.origin + q * self.step;
+            let (wrong, next) = if up {
+                (at.cmplt(x) & q.cmplt(top), q + 1.0)
+            } else {
+                (at.cmpgt(x) & q.cmpgt(Vec3A::ZERO), q - 1.0)
+            };
+            if !wrong.any() {
+                let q = q.as_uvec3();
+                return [q.x, q.y, q.z].map(|c| c as u16);
+            }
+            q = Vec3A::select(wrong, next, q);
+        }
+    }
+}
+
+/// 15-bit cosine code → cosine in [−1, 1].
+pub(super) fn decode_cos(q: u32) -> f32 {
+    q as f32 * (2.0 / COS_MAX as f32) - 1.0
+}
+
+/// A 15-bit code whose cosine is ≤ `c` (a wider or equal angle): `c` rounded
+/// down to the grid, then checked with the decoding arithmetic.
+pub(super) fn encode_cos(c: f64) -> u32 {
+    let mut q = ((c + 1.0) * 0.5 * f64::from(COS_MAX)).clamp(0.0, f64::from(COS_MAX)) as u32;
+    while q > 0 && f64::from(decode_cos(q)) > c {
+        q -= 1;
+    }
+    q
+}
+
+/// Octahedral code of a unit vector: 16 bits for each of the two coordinates
+/// of its projection onto |x| + |y| + |z| = 1, the lower half folded over.
+pub(super) fn encode_octahedral(v: Vec3) -> u32 {
+    let v = v / (v.x.abs() + v.y.abs() + v.z.abs());
+    let (x, y) = if v.z < 0.0 {
+        (
+            (1.0 - v.y.abs()) * v.x.signum(),
+            (1.0 - v.x.abs()) * v.y.signum(),
+        )
+    } else {
+        (v.x, v.y)
+    };
+    let code = |t: f32| ((t.clamp(-1.0, 1.0) * 0.5 + 0.5) * BOX_MAX as f32 + 0.5) as u32;
+    code(x) | code(y) << 16
+}
+
+/// Unit vector of an octahedral code.
+#[inline(always)]
+pub(super) fn decode_octahedral(code: u32) -> Vec3 {
+    let coord = |q: u32| (q & BOX_MAX) as f32 * (2.0 / BOX_MAX as f32) - 1.0;
+    let (x, y) = (coord(code), coord(code >> 16));
+    let z = 1.0 - x.abs() - y.abs();
+    let (x, y) = if z < 0.0 {
+        ((1.0 - y.abs()) * x.signum(), (1.0 - x.abs()) * y.signum())
+    } else {
+        (x, y)
+    };
+    Vec3::new(x, y, z).normalize()
+}
+
+/// Quantised normal cone: the axis' octahedral code and the 15-bit cos θo of
+/// a cone about the decoded axis that holds the original cone (θo widened by
+/// the angle between the two axes).
+pub(super) fn encode_cone(w: Vec3, cos_o: f32) -> (u32, u32) {
+    if is_whole_sphere((w, cos_o)) {
+        return (encode_octahedral(Vec3::Z), 0);
+    }
+    let code = encode_octahedral(w);
+    let (a, b) = (w.as_dvec3().normalize(), decode_octahedral(code).as_dvec3());
+    let error = (a.dot(b), a.cross(b).length());
+    let cos_o = f64::from(cos_o).clamp(-1.0, 1.0);
+    let theta = angle_sum((cos_o, ((1.0 - cos_o) * (1.0 + cos_o)).sqrt()), error);
+    let slack = (1.0 - 0.5 * ANGLE_SLACK * ANGLE_SLACK, ANGLE_SLACK);
+    (code, encode_cos(angle_sum(theta, slack).0))
+}
+
+/// (cos, sin) of α + β from those of α, β ∈ [0, π]; (−1, 0) once α + β ≥ π.
+pub(super) fn angle_sum((cos_a, sin_a): (f64, f64), (cos_b, sin_b): (f64, f64)) -> (f64, f64) {
+    if cos_a + cos_b <= 0.0 {
+        return (-1.0, 0.0);
+    }
+    (cos_a * cos_b - sin_a * sin_b, sin_a * cos_b + cos_a * sin_b)
+}

@@ -1,0 +1,496 @@
+//! Choosing where to split a node in the build: the binned cost over three axes
+//! (Φ × orientation measure M_Ω × box area, scaled by thinness along the axis,
+//! Conty Estevez & Kulla 2018 SAOH), exhaustive cuts for small nodes, and the
+//! in-place partition of the lights.
+
+use glam::{Vec3, Vec3A};
+
+use super::*;
+
+/// A light as the build sees it: sanitised bounds plus its original index.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Prim {
+    pub(super) lo: Vec3,
+    pub(super) hi: Vec3,
+    pub(super) w: Vec3,
+    pub(super) phi: f32,
+    pub(super) cos_o: f32,
+    pub(super) cos_e: f32,
+    pub(super) id: u32,
+    pub(super) two_sided: bool,
+}
+
+impl Prim {
+    /// Stands for a light left out until it is removed (Φ = 0).
+    pub(super) const LEFT_OUT: Prim = Prim {
+        lo: Vec3::ZERO,
+        hi: Vec3::ZERO,
+        w: Vec3::ZERO,
+        phi: 0.0,
+        cos_o: -1.0,
+        cos_e: 0.0,
+        id: 0,
+        two_sided: false,
+    };
+
+    /// `None` for lights left out: Φ not > 0, a non-finite field, or i ≥ 2³¹.
+    /// Otherwise the box is reordered, w normalised (a zero w means every
+    /// direction) and the cosines clamped to [−1, 1].
+    pub(super) fn new(i: usize, b: &LightBounds) -> Option<Prim> {
+        let id = u32::try_from(i).ok().filter(|&id| id < 1 << 31)?;
+        let finite = b.lo.is_finite()
+            && b.hi.is_finite()
+            && b.w.is_finite()
+            && b.phi.is_finite()
+            && b.cos_theta_o.is_finite()
+            && b.cos_theta_e.is_finite();
+        if !(finite && b.phi > 0.0) {
+            return None;
+        }
+        let w = b.w.normalize_or_zero();
+        let cos_o = if w == Vec3::ZERO {
+            -1.0
+        } else {
+            b.cos_theta_o.clamp(-1.0, 1.0)
+        };
+        Some(Prim {
+            lo: b.lo.min(b.hi),
+            hi: b.lo.max(b.hi),
+            w,
+            phi: b.phi,
+            cos_o,
+            cos_e: b.cos_theta_e.clamp(-1.0, 1.0),
+            id,
+            two_sided: b.two_sided,
+        })
+    }
+
+    pub(super) fn centroid(&self) -> Vec3A {
+        (Vec3A::from(self.lo) + Vec3A::from(self.hi)) * 0.5
+    }
+
+    pub(super) fn aabb(&self) -> Aabb {
+        Aabb {
+            lo: self.lo.into(),
+            hi: self.hi.into(),
+        }
+    }
+
+    pub(super) fn bounds(&self) -> LightBounds {
+        LightBounds {
+            lo: self.lo,
+            hi: self.hi,
+            phi: self.phi,
+            w: self.w,
+            cos_theta_o: self.cos_o,
+            cos_theta_e: self.cos_e,
+            two_sided: self.two_sided,
+        }
+    }
+}
+
+/// Axis-aligned box used by the build.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Aabb {
+    pub(super) lo: Vec3A,
+    pub(super) hi: Vec3A,
+}
+
+impl Aabb {
+    pub(super) const EMPTY: Aabb = Aabb {
+        lo: Vec3A::INFINITY,
+        hi: Vec3A::NEG_INFINITY,
+    };
+
+    pub(super) fn point(p: Vec3A) -> Aabb {
+        Aabb { lo: p, hi: p }
+    }
+
+    pub(super) fn merge(&self, other: &Aabb) -> Aabb {
+        Aabb {
+            lo: self.lo.min(other.lo),
+            hi: self.hi.max(other.hi),
+        }
+    }
+
+    pub(super) fn grow(&mut self, other: &Aabb) {
+        self.lo = self.lo.min(other.lo);
+        self.hi = self.hi.max(other.hi);
+    }
+
+    pub(super) fn extent(&self) -> Vec3A {
+        (self.hi - self.lo).max(Vec3A::ZERO)
+    }
+
+    /// Surface area with every edge lengthened by `pad`, so that flat or
+    /// collinear sets still compare by size.
+    pub(super) fn padded_area(&self, pad: f32) -> f64 {
+        let e = (self.extent() + pad).as_dvec3();
+        2.0 * (e.x * e.y + e.y * e.z + e.z * e.x)
+    }
+}
+
+/// A set of lights as the split cost sees it: box, summed Φ (f64), count,
+/// the box holding their unit axes, and their widest θo and θe. Merging is
+/// component-wise, so runs of buckets or lights are cheap to accumulate.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Side {
+    pub(super) bounds: Aabb,
+    pub(super) axes: Aabb,
+    pub(super) phi: f64,
+    pub(super) count: u32,
+    pub(super) cos_o: f32,
+    pub(super) cos_e: f32,
+}
+
+impl Side {
+    pub(super) const EMPTY: Side = Side {
+        bounds: Aabb::EMPTY,
+        axes: Aabb::EMPTY,
+        phi: 0.0,
+        count: 0,
+        cos_o: 1.0,
+        cos_e: 1.0,
+    };
+
+    pub(super) fn of(p: &Prim) -> Side {
+        Side {
+            bounds: p.aabb(),
+            axes: Aabb::point(p.w.into()),
+            phi: f64::from(p.phi),
+            count: 1,
+            cos_o: p.cos_o,
+            cos_e: p.cos_e,
+        }
+    }
+
+    /// Adds `other`'s lights, in place.
+    pub(super) fn add(&mut self, other: &Side) {
+        self.bounds.grow(&other.bounds);
+        self.axes.grow(&other.axes);
+        self.phi += other.phi;
+        self.count += other.count;
+        self.cos_o = self.cos_o.min(other.cos_o);
+        self.cos_e = self.cos_e.min(other.cos_e);
+    }
+
+    /// cos θo of a cone holding every light's normal cone: about the
+    /// direction a of the axis box's centre, the smallest a·w over the box
+    /// bounds the axes' angle from a, and the widest θo is added to it.
+    pub(super) fn cos_half_angle(&self) -> f32 {
+        if self.count == 1 {
+            return self.cos_o;
+        }
+        let a = self.axes.lo + self.axes.hi;
+        let length = a.length();
+        if !length.is_normal() {
+            return -1.0;
+        }
+        let nearest =
+            ((a * self.axes.lo).min(a * self.axes.hi).element_sum() / length).clamp(-1.0, 1.0);
+        if self.cos_o >= 1.0 {
+            nearest
+        } else {
+            cos_sum(nearest, self.cos_o, sin_of(self.cos_o))
+        }
+    }
+
+    /// pbrt-v4's split cost of one side without the axis factor:
+    /// Φ · M_Ω(θo, θe) · surface area.
+    pub(super) fn cost(&self, pad: f32) -> f64 {
+        let m_omega = orientation_measure(self.cos_half_angle(), self.cos_e);
+        self.phi * m_omega * self.bounds.padded_area(pad)
+    }
+}
+
+/// M_Ω(θo, θe): the integral of the clamped emission bound over the sphere,
+/// 2π(1 − cos θo) + π/2·(2θw sin θo − cos(θo − 2θw) − 2θo sin θo + cos θo)
+/// with θw = min(θo + θe, π); in f32 with an approximate arccosine (it only
+/// ranks splits), written without branches on the cone's width.
+pub(super) fn orientation_measure(cos_o: f32, cos_e: f32) -> f64 {
+    use std::f32::consts::{FRAC_PI_2, PI};
+    let (co, so) = (cos_o, sin_of(cos_o));
+    let (ce, se) = (cos_e, sin_of(cos_e));
+    let theta_o = approx_acos(co);
+    let theta_e = if ce == 0.0 {
+        FRAC_PI_2
+    } else {
+        approx_acos(ce)
+    };
+    // θw − θo, and cos(θo − 2θw) = cos(θo + 2θe) unless θw = π.
+    let spread = theta_e.min(PI - theta_o);
+    let wraps = theta_o + theta_e >= PI;
+    let cos_o_2e = co * (2.0 * ce * ce - 1.0) - so * (2.0 * se * ce);
+    let cos_o_2w = if wraps { co } else { cos_o_2e };
+    f64::from(2.0 * PI * (1.0 - co) + FRAC_PI_2 * (2.0 * spread * so - cos_o_2w + co))
+}
+
+/// arccos within 7e-5 (Abramowitz & Stegun 4.4.45).
+pub(super) fn approx_acos(x: f32) -> f32 {
+    let a = x.abs().min(1.0);
+    let t =
+        (1.0 - a).sqrt() * (1.570_728_8 + a * (-0.212_114_4 + a * (0.074_261 - 0.018_729_3 * a)));
+    if x < 0.0 {
+        std::f32::consts::PI - t
+    } else {
+        t
+    }
+}
+
+/// Most items [`cheapest_cut`] handles: buckets, or lights of a small node.
+pub(super) const MAX_CUT_ITEMS: usize = 16;
+/// Nodes with at most this many lights try every cut of their lights sorted
+/// along each axis instead of binning.
+pub(super) const SMALL_NODE: usize = MAX_CUT_ITEMS;
+
+/// The cheapest cut of a sequence of `n` ≤ [`MAX_CUT_ITEMS`] sets (empty ones
+/// allowed) into two non-empty runs, as (Σ side costs, length of the first
+/// run); every distinct cut is tried.
+pub(super) fn cheapest_cut(
+    n: usize,
+    item: impl Fn(usize) -> Side,
+    pad: f32,
+) -> Option<(f64, usize)> {
+    let mut suffix_cost = [f64::INFINITY; MAX_CUT_ITEMS];
+    let mut suffix = Side::EMPTY;
+    for k in (1..n).rev() {
+        suffix.add(&item(k));
+        if suffix.count > 0 {
+            suffix_cost[k] = suffix.cost(pad);
+        }
+    }
+    let mut prefix = Side::EMPTY;
+    let mut best: Option<(f64, usize)> = None;
+    for k in 0..n - 1 {
+        let next = item(k);
+        if next.count == 0 {
+            continue;
+        }
+        prefix.add(&next);
+        let cost = prefix.cost(pad) + suffix_cost[k + 1];
+        if cost.is_finite() && best.is_none_or(|b| cost < b.0) {
+            best = Some((cost, k + 1));
+        }
+    }
+    best
+}
+
+/// Lights binned by centroid along one axis: their [`Side`] and centroid box.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Bin {
+    pub(super) side: Side,
+    pub(super) centroids: Aabb,
+}
+
+impl Bin {
+    pub(super) const EMPTY: Bin = Bin {
+        side: Side::EMPTY,
+        centroids: Aabb::EMPTY,
+    };
+
+    /// Adds `other`'s lights, in place.
+    pub(super) fn add(&mut self, other: &Bin) {
+        self.side.add(&other.side);
+        self.centroids.grow(&other.centroids);
+    }
+}
+
+/// Maps centroids to buckets along the axes where their box has extent.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Binner {
+    pub(super) lo: Vec3A,
+    pub(super) scale: Vec3A,
+    pub(super) active: [bool; 3],
+}
+
+impl Binner {
+    pub(super) fn new(centroids: &Aabb) -> Binner {
+        let extent = centroids.extent();
+        let scale =
+            |k: usize| (BUCKETS as f64 / f64::from(extent[k])).min(f64::from(f32::MAX)) as f32;
+        Binner {
+            lo: centroids.lo,
+            scale: Vec3A::new(scale(0), scale(1), scale(2)),
+            active: [0, 1, 2].map(|k| extent[k] > 0.0),
+        }
+    }
+
+    /// Bucket of a centroid along each axis.
+    pub(super) fn buckets(&self, centroid: Vec3A) -> [usize; 3] {
+        let b = ((centroid - self.lo) * self.scale).as_uvec3();
+        [b.x, b.y, b.z].map(|b| (b as usize).min(BUCKETS - 1))
+    }
+
+    /// Whether a light's bucket along `axis` is below `cut`; the same
+    /// arithmetic as [`buckets`](Self::buckets), for one axis.
+    pub(super) fn below(&self, p: &Prim, axis: usize, cut: usize) -> bool {
+        let centroid = (p.lo[axis] + p.hi[axis]) * 0.5;
+        let b = ((centroid - self.lo[axis]) * self.scale[axis]) as u32;
+        (b as usize).min(BUCKETS - 1) < cut
+    }
+
+    /// Bins the lights along every active axis, in one pass (halves of
+    /// large sets binned in parallel).
+    pub(super) fn bin(&self, prims: &[Prim]) -> [[Bin; BUCKETS]; 3] {
+        if prims.len() >= PARALLEL_BINNING_MIN {
+            let (a, b) = prims.split_at(prims.len() / 2);
+            let (mut bins, other) = rayon::join(|| self.bin(a), || self.bin(b));
+            for (bin, more) in bins.iter_mut().flatten().zip(other.iter().flatten()) {
+                bin.add(more);
+            }
+            return bins;
+        }
+        let mut bins = [[Bin::EMPTY; BUCKETS]; 3];
+        for p in prims {
+            let (c, side) = (p.centroid(), Side::of(p));
+            let buckets = self.buckets(c);
+            for (axis, row) in bins.iter_mut().enumerate() {
+                if self.active[axis] {
+                    let bin = &mut row[buckets[axis]];
+                    bin.side.add(&side);
+                    bin.centroids.grow(&Aabb::point(c));
+                }
+            }
+        }
+        bins
+    }
+}
+
+/// A chosen split: lights `..mid` go left; the children's centroid boxes.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Split {
+    pub(super) mid: usize,
+    pub(super) left: Aabb,
+    pub(super) right: Aabb,
+}
+
+/// Splits `prims` (≥ 2), reordering them so the left part comes first: by
+/// the binned cost, or by trying every cut for small nodes; a median split
+/// when the centroids cannot be separated.
+pub(super) fn choose_split(prims: &mut [Prim], centroids: Aabb) -> Split {
+    let median = Split {
+        mid: prims.len() / 2,
+        left: centroids,
+        right: centroids,
+    };
+    let split = match prims.len() {
+        0..=2 => None,
+        3..=SMALL_NODE => small_split(prims, centroids),
+        _ => binned_split(prims, centroids),
+    };
+    split.unwrap_or(median)
+}
+
+/// The split axis' weight Kr = (largest extent)/(extent along the axis), and
+/// the padding for [`Aabb::padded_area`], from the node's box.
+pub(super) fn axis_weights(node: &Aabb) -> ([f64; 3], f32) {
+    let extent = node.extent();
+    let largest = extent.max_element();
+    (
+        [0, 1, 2].map(|k| f64::from(largest / extent[k])),
+        1e-3 * largest,
+    )
+}
+
+/// Binned split: 12 buckets along each axis, every boundary tried.
+pub(super) fn binned_split(prims: &mut [Prim], centroids: Aabb) -> Option<Split> {
+    let binner = Binner::new(&centroids);
+    let bins = binner.bin(prims);
+    let row = bins.iter().zip(binner.active).find(|(_, a)| *a)?.0;
+    let node = row
+        .iter()
+        .fold(Aabb::EMPTY, |b, bin| b.merge(&bin.side.bounds));
+    let (kr, pad) = axis_weights(&node);
+    let mut best: Option<(f64, usize, usize)> = None;
+    for (axis, row) in bins
+        .iter()
+        .enumerate()
+        .filter(|(axis, _)| binner.active[*axis])
+    {
+        if let Some((cost, cut)) = cheapest_cut(BUCKETS, |k| row[k].side, pad) {
+            let cost = kr[axis] * cost;
+            if best.is_none_or(|b| cost < b.0) {
+                best = Some((cost, axis, cut));
+            }
+        }
+    }
+    let (_, axis, cut) = best?;
+    let union = |bins: &[Bin]| {
+        bins.iter()
+            .fold(Aabb::EMPTY, |b, bin| b.merge(&bin.centroids))
+    };
+    let mid = partition(prims, |p| binner.below(p, axis, cut));
+    let split = Split {
+        mid,
+        left: union(&bins[axis][..cut]),
+        right: union(&bins[axis][cut..]),
+    };
+    (0 < mid && mid < prims.len()).then_some(split)
+}
+
+/// Split of a small node: the lights sorted by centroid along each axis, every
+/// cut tried.
+pub(super) fn small_split(prims: &mut [Prim], centroids: Aabb) -> Option<Split> {
+    let n = prims.len();
+    let sides: [Side; SMALL_NODE] =
+        std::array::from_fn(|k| prims.get(k).map_or(Side::EMPTY, Side::of));
+    let keys: [Vec3A; SMALL_NODE] =
+        std::array::from_fn(|k| sides[k].bounds.lo + sides[k].bounds.hi);
+    let node = sides.iter().fold(Aabb::EMPTY, |b, s| b.merge(&s.bounds));
+    let (kr, pad) = axis_weights(&node);
+    let active = centroids.extent().cmpgt(Vec3A::ZERO);
+    let mut best: Option<(f64, [u8; SMALL_NODE], usize)> = None;
+    for axis in (0..3).filter(|&k| active.test(k)) {
+        let order = sorted_along(&keys[..n], axis);
+        if let Some((cost, cut)) = cheapest_cut(n, |k| sides[usize::from(order[k])], pad) {
+            let cost = kr[axis] * cost;
+            if best.is_none_or(|b| cost < b.0) {
+                best = Some((cost, order, cut));
+            }
+        }
+    }
+    let (_, order, mid) = best?;
+    let sorted: [Prim; SMALL_NODE] = std::array::from_fn(|k| prims[usize::from(order[k])]);
+    prims.copy_from_slice(&sorted[..n]);
+    Some(Split {
+        mid,
+        left: centroids,
+        right: centroids,
+    })
+}
+
+/// Positions 0..keys.len() (at most [`SMALL_NODE`]) sorted by `keys[·][axis]`,
+/// ties kept in order; unused entries are 0.
+pub(super) fn sorted_along(keys: &[Vec3A], axis: usize) -> [u8; SMALL_NODE] {
+    let key = |i: u8| keys[usize::from(i)][axis];
+    let mut order = [0u8; SMALL_NODE];
+    for i in 1..keys.len().min(SMALL_NODE) as u8 {
+        let mut j = usize::from(i);
+        while j > 0 && key(i).total_cmp(&key(order[j - 1])).is_lt() {
+            order[j] = order[j - 1];
+            j -= 1;
+        }
+        order[j] = i;
+    }
+    order
+}
+
+/// Moves the lights for which `goes_left` holds to the front (swapping
+/// misplaced pairs from both ends); returns how many.
+pub(super) fn partition(prims: &mut [Prim], goes_left: impl Fn(&Prim) -> bool) -> usize {
+    let (mut i, mut j) = (0, prims.len());
+    loop {
+        while i < j && goes_left(&prims[i]) {
+            i += 1;
+        }
+        while i < j && !goes_left(&prims[j - 1]) {
+            j -= 1;
+        }
+        if i + 1 >= j {
+            return i;
+        }
+        prims.swap(i, j - 1);
+        i += 1;
+        j -= 1;
+    }
+}
