@@ -22,7 +22,7 @@ use crate::measure::errors::Against;
 use crate::measure::fit::{fit_loglog, EXTRAPOLATION_FACTOR, MAX_INTERVAL_RATIO};
 use crate::measure::plot::{plot_relmse_vs_seconds, write_error_image};
 use crate::measure::report::{csv, markdown, table, write_json, write_text};
-use crate::measure::{EstimatorChoice, SceneSetup};
+use crate::measure::EstimatorChoice;
 
 #[derive(Args, Debug, Clone)]
 pub struct BenchArgs {
@@ -264,15 +264,7 @@ pub fn run_bench(args: &BenchArgs) -> anyhow::Result<()> {
             .into());
         }
     }
-    let setup = SceneSetup::load_allowing(
-        &o.scene,
-        o.camera.as_ref(),
-        o.width,
-        o.height,
-        &o.allow_external_files,
-    )?
-    .with_punctual_units(o.punctual_units)
-    .with_environment(o.environment()?);
+    let setup = o.scene_setup()?;
     check_resolution(setup.width, setup.height)?;
     let externals = read_externals(&args.external, setup.width, setup.height)?;
     let pool = o.thread_pool()?;

@@ -11,7 +11,6 @@ use super::reference::{lit_mask_for, obtain_reference};
 use super::UsageError;
 use crate::measure::converge::{run, ConvergeOptions, ConvergeReport};
 use crate::measure::report::write_json;
-use crate::measure::SceneSetup;
 
 #[derive(Args, Debug, Clone)]
 pub struct ConvergeArgs {
@@ -64,15 +63,7 @@ pub fn run_converge(args: &ConvergeArgs) -> anyhow::Result<bool> {
         clamp: o.clamp,
         tolerance: args.tolerance,
     };
-    let setup = SceneSetup::load_allowing(
-        &o.scene,
-        o.camera.as_ref(),
-        o.width,
-        o.height,
-        &o.allow_external_files,
-    )?
-    .with_punctual_units(o.punctual_units)
-    .with_environment(o.environment()?);
+    let setup = o.scene_setup()?;
     check_resolution(setup.width, setup.height)?;
     let pool = o.thread_pool()?;
     let max_spp = distinct.last().copied().unwrap_or(1);

@@ -149,6 +149,20 @@ impl RenderOptionsArgs {
         single("--spp", &self.spp, defaults.spp)
     }
 
+    /// The scene with its camera, resolution, punctual-light units, external-file policy and
+    /// `--env` map, as every command that renders sets it up.
+    pub fn scene_setup(&self) -> anyhow::Result<crate::measure::SceneSetup> {
+        Ok(crate::measure::SceneSetup::load_allowing(
+            &self.scene,
+            self.camera.as_ref(),
+            self.width,
+            self.height,
+            &self.allow_external_files,
+        )?
+        .with_punctual_units(self.punctual_units)
+        .with_environment(self.environment()?))
+    }
+
     /// The `--env` map, scaled and rotated (None without `--env`).
     pub fn environment(&self) -> Result<Option<Arc<EnvironmentMap>>, EnvironmentError> {
         self.env

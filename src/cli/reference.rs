@@ -89,15 +89,7 @@ pub fn run(args: &ReferenceArgs) -> anyhow::Result<()> {
     }
     let estimator = o.estimator(&REFERENCE_DEFAULTS)?;
     let spp = o.single_spp(&REFERENCE_DEFAULTS)?;
-    let setup = SceneSetup::load_allowing(
-        &o.scene,
-        o.camera.as_ref(),
-        o.width,
-        o.height,
-        &o.allow_external_files,
-    )?
-    .with_punctual_units(o.punctual_units)
-    .with_environment(o.environment()?);
+    let setup = o.scene_setup()?;
     check_resolution(setup.width, setup.height)?;
     let options = ReferenceOptions {
         width: setup.width,
