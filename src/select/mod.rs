@@ -7,7 +7,6 @@
 //! `oracle`: p_l ∝ each light's exact unshadowed contribution to a diffuse receiver (O(L)).
 
 mod tree_selector;
-// `!(x > 0.0)` is the BVH's deliberate NaN-rejecting test.
 pub mod light_tree;
 pub mod oracle;
 
