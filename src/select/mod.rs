@@ -6,9 +6,9 @@
 //! importance (Conty Estevez & Kulla 2018), directional lights chosen outside the tree by power.
 //! `oracle`: p_l ∝ each light's exact unshadowed contribution to a diffuse receiver (O(L)).
 
-mod tree_selector;
 pub mod light_tree;
 pub mod oracle;
+mod tree_selector;
 
 use glam::Vec3;
 
