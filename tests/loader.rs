@@ -259,3 +259,101 @@ fn punctual_lights_are_placed_by_their_nodes() {
     assert!(close(sun.direction, -Vec3::Y));
     assert_eq!(Lights::from_scene(&scene).len(), 3);
 }
+
+/// Rewrites the single primitive of a file from `common::write_gltf` to glTF mode `mode`; with
+/// `keep_triangles`, a TRIANGLES copy of it is kept first (a scene needs some area to load).
+fn set_primitive_mode(path: &str, mode: u32, keep_triangles: bool) {
+    let mut json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap();
+    let mut changed = json["meshes"][0]["primitives"][0].clone();
+    changed["mode"] = mode.into();
+    let primitives = json["meshes"][0]["primitives"].as_array_mut().unwrap();
+    if keep_triangles {
+        primitives.push(changed);
+    } else {
+        primitives[0] = changed;
+    }
+    std::fs::write(path, serde_json::to_vec(&json).unwrap()).unwrap();
+}
+
+/// Twice the signed area of a polygon in the xy plane (the shoelace formula), counter-clockwise
+/// positive: an independent total for the triangles a strip or fan makes of it.
+fn shoelace(xy: &[[f32; 2]]) -> f64 {
+    (0..xy.len())
+        .map(|i| {
+            let (a, b) = (xy[i], xy[(i + 1) % xy.len()]);
+            f64::from(a[0]) * f64::from(b[1]) - f64::from(b[0]) * f64::from(a[1])
+        })
+        .sum()
+}
+
+#[test]
+fn strips_and_fans_become_front_facing_triangles_covering_the_polygon() {
+    let dir = tempfile::tempdir().unwrap();
+    // A strip zig-zagging along x (top, bottom, top, …), and the same band as a polygon.
+    let strip_xy = [
+        [0.0, 1.0],
+        [0.0, 0.0],
+        [1.0, 1.0],
+        [1.0, 0.0],
+        [2.5, 1.2],
+        [3.0, 0.0],
+    ];
+    let band = [
+        [0.0, 0.0],
+        [1.0, 0.0],
+        [3.0, 0.0],
+        [2.5, 1.2],
+        [1.0, 1.0],
+        [0.0, 1.0],
+    ];
+    // A convex counter-clockwise pentagon, fanned from its first vertex.
+    let fan_xy = [[0.0, 0.0], [2.0, 0.0], [2.5, 1.5], [1.0, 2.5], [-0.5, 1.2]];
+    for (name, mode, xy, polygon) in [
+        ("strip", 5, &strip_xy[..], &band[..]),
+        ("fan", 6, &fan_xy[..], &fan_xy[..]),
+    ] {
+        let positions: Vec<f32> = xy.iter().flat_map(|p| [p[0], p[1], 0.0]).collect();
+        let path = write_gltf(dir.path(), name, &positions, None, true);
+        set_primitive_mode(&path, mode, false);
+        let scene = load_gltf(Path::new(&path), &CameraChoice::First).unwrap();
+        assert_eq!(scene.triangles.len(), xy.len() - 2, "{name}");
+        assert_eq!(scene.stats.skipped_primitives, 0, "{name}");
+        for t in &scene.triangles {
+            assert!(
+                close(t.geometric_normal(), Vec3::Z),
+                "{name}: a triangle faces away"
+            );
+        }
+        let area: f64 = scene.triangles.iter().map(|t| f64::from(t.area())).sum();
+        let expected = 0.5 * shoelace(polygon);
+        assert!(
+            (area - expected).abs() < 1e-5 * expected,
+            "{name}: {area} vs {expected}"
+        );
+    }
+}
+
+#[test]
+fn primitives_without_area_are_counted_and_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let positions = [
+        0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 1.0, 0.0,
+    ];
+    for (mode, label) in [
+        (0, "POINTS"),
+        (1, "LINES"),
+        (2, "LINELOOP"),
+        (3, "LINESTRIP"),
+    ] {
+        let path = write_gltf(dir.path(), label, &positions, None, true);
+        set_primitive_mode(&path, mode, true);
+        let scene = load_gltf(Path::new(&path), &CameraChoice::First).unwrap();
+        assert_eq!(scene.triangles.len(), 2, "{label}: the TRIANGLES copy only");
+        assert_eq!(scene.stats.skipped_primitives, 1, "{label}");
+        assert_eq!(
+            scene.stats.skipped_primitive_names,
+            vec![format!("mesh 0 'plate' primitive 1 ({label})")]
+        );
+    }
+}

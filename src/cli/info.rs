@@ -97,9 +97,12 @@ pub fn run(args: &InfoArgs) -> anyhow::Result<()> {
     }
     let s = &scene.stats;
     println!(
-        "skipped            {} degenerate triangles, {} non-triangle primitives",
+        "skipped            {} degenerate triangles, {} primitives without area (points, lines)",
         s.degenerate_triangles, s.skipped_primitives
     );
+    for name in &s.skipped_primitive_names {
+        println!("  without area     {name}");
+    }
     Ok(())
 }
 

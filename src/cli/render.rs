@@ -140,6 +140,7 @@ fn render_scene(
     let prepared = PreparedScene::new(scene, choice.selector);
     seconds.bvh_build = prepared.bvh_seconds;
     seconds.light_build = prepared.light_seconds;
+    warn_skipped_primitives(&prepared.scene.stats, &o.scene);
     if prepared.lights.is_empty() {
         eprintln!(
             "note: {} has no lights: only black will be rendered",
@@ -290,4 +291,24 @@ fn print_summary(s: &RenderSummary) {
         s.stats.max_sample_luminance
     );
     println!("wrote     {}", s.output.display());
+}
+
+/// Says on stderr which primitives were left out for having no area (points, lines), so that
+/// missing geometry is never silent.
+pub fn warn_skipped_primitives(stats: &crate::scene::LoadStats, scene: &std::path::Path) {
+    if stats.skipped_primitives == 0 {
+        return;
+    }
+    let more = stats.skipped_primitives - stats.skipped_primitive_names.len();
+    let more = if more > 0 {
+        format!(" and {more} more")
+    } else {
+        String::new()
+    };
+    eprintln!(
+        "warning: {} has {} primitive(s) without area, not rendered: {}{more}",
+        scene.display(),
+        stats.skipped_primitives,
+        stats.skipped_primitive_names.join(", ")
+    );
 }

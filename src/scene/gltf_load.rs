@@ -28,6 +28,7 @@ use std::path::{Path, PathBuf};
 
 use glam::{Mat3, Mat4, Vec2, Vec3};
 use gltf::accessor::{DataType, Dimensions};
+use gltf::mesh::Mode;
 
 use super::gltf_camera::choose_camera;
 pub use super::gltf_camera::CameraChoice;
@@ -36,7 +37,7 @@ use super::gltf_files::{read_uri, FileAccess};
 use super::texture_decode::decode_image;
 use super::{
     geometric_normal, LoadStats, Material, PunctualUnits, Scene, Texture, Triangle, UvTransform,
-    Wrap,
+    Wrap, NAMED_SKIPPED_PRIMITIVES,
 };
 
 /// Why a scene file could not be loaded; every variant names the file.
@@ -228,8 +229,14 @@ pub fn load_gltf_bytes_allowing(
                     quoted(mesh.name()),
                     prim.index()
                 );
-                if prim.mode() != gltf::mesh::Mode::Triangles {
+                if !has_area(prim.mode()) {
                     stats.skipped_primitives += 1;
+                    if stats.skipped_primitive_names.len() < NAMED_SKIPPED_PRIMITIVES {
+                        let mode = format!("{:?}", prim.mode()).to_uppercase();
+                        stats
+                            .skipped_primitive_names
+                            .push(format!("{element} ({mode})"));
+                    }
                     continue;
                 }
                 let material = loader
@@ -259,12 +266,13 @@ pub fn load_gltf_bytes_allowing(
         .and_then(|s| s.with_textures(textures))
         .map_err(|m| invalid(scene_element, m))?;
     scene.stats.skipped_primitives = stats.skipped_primitives;
+    scene.stats.skipped_primitive_names = stats.skipped_primitive_names;
     scene.stats.degenerate_triangles += stats.degenerate_triangles;
     Ok(scene)
 }
 
-/// Triangles the scene's node instances declare: Σ over nodes of their mesh's triangle-mode
-/// primitives' index (or vertex) counts / 3, from the JSON alone. A node reached twice is counted
+/// Triangles the scene's node instances declare: Σ over nodes of their mesh's triangle, strip and
+/// fan primitives' triangles from their index (or vertex) counts, from the JSON alone. A node reached twice is counted
 /// once (the traversal refuses it later).
 fn declared_triangles(scene: &gltf::Scene) -> u64 {
     let mut seen = std::collections::HashSet::new();
@@ -276,21 +284,55 @@ fn declared_triangles(scene: &gltf::Scene) -> u64 {
         }
         if let Some(mesh) = node.mesh() {
             for prim in mesh.primitives() {
-                if prim.mode() != gltf::mesh::Mode::Triangles {
-                    continue;
-                }
                 let count = match prim.indices() {
                     Some(acc) => acc.count(),
                     None => prim
                         .get(&gltf::Semantic::Positions)
                         .map_or(0, |a| a.count()),
                 };
-                total = total.saturating_add(count as u64 / 3);
+                total = total.saturating_add(triangle_count(prim.mode(), count) as u64);
             }
         }
         stack.extend(node.children());
     }
     total
+}
+
+/// Whether primitives of this mode cover area (triangles, strips and fans); points and lines
+/// have none to shade or emit from.
+fn has_area(mode: Mode) -> bool {
+    matches!(
+        mode,
+        Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+    )
+}
+
+/// Triangles a primitive of `mode` with `count` indices (or vertices) makes: count/3 for
+/// TRIANGLES, count − 2 for strips and fans, 0 for modes without area.
+fn triangle_count(mode: Mode, count: usize) -> usize {
+    match mode {
+        Mode::Triangles => count / 3,
+        Mode::TriangleStrip | Mode::TriangleFan => count.saturating_sub(2),
+        _ => 0,
+    }
+}
+
+/// The vertex triples of a primitive as a TRIANGLES list, with glTF 2.0's winding (§3.7.2.1):
+/// strip triangle i is (v_i, v_{i+1+i%2}, v_{i+2−i%2}), fan triangle i is (v_{i+1}, v_{i+2}, v_0).
+fn triangle_list(mode: Mode, indices: Vec<u32>) -> Vec<u32> {
+    let n = triangle_count(mode, indices.len());
+    match mode {
+        Mode::TriangleStrip => (0..n)
+            .flat_map(|i| {
+                let odd = i % 2;
+                [indices[i], indices[i + 1 + odd], indices[i + 2 - odd]]
+            })
+            .collect(),
+        Mode::TriangleFan => (0..n)
+            .flat_map(|i| [indices[i + 1], indices[i + 2], indices[0]])
+            .collect(),
+        _ => indices,
+    }
 }
 
 /// Checks what the `gltf` crate's GLB reader takes on trust, so that a truncated file or one
@@ -661,12 +703,14 @@ impl Loader<'_> {
             }
             None => (0..positions.len() as u32).collect(),
         };
-        if !indices.len().is_multiple_of(3) {
+        let mode = prim.mode();
+        if mode == Mode::Triangles && !indices.len().is_multiple_of(3) {
             return Err(format!(
                 "{} indices is not a multiple of 3 for TRIANGLES mode",
                 indices.len()
             ));
         }
+        let indices = triangle_list(mode, indices);
 
         let normal_matrix = Mat3::from_mat4(*world).inverse().transpose();
         let mirrored = Mat3::from_mat4(*world).determinant() < 0.0;

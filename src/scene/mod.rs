@@ -148,9 +148,14 @@ pub fn triangle_area(p: &[Vec3; 3]) -> f32 {
 pub struct LoadStats {
     /// Triangles of zero (or non-finite) area, not added to the scene.
     pub degenerate_triangles: usize,
-    /// Primitives in a mode other than TRIANGLES (points, lines, strips, fans).
+    /// Primitives without area (POINTS, LINES, LINE_LOOP, LINE_STRIP), not added to the scene.
     pub skipped_primitives: usize,
+    /// The first few of those, as "mesh M 'name' primitive P (MODE)", for warnings.
+    pub skipped_primitive_names: Vec<String>,
 }
+
+/// How many skipped primitives [`LoadStats`] names.
+pub const NAMED_SKIPPED_PRIMITIVES: usize = 8;
 
 /// The kind of a KHR_lights_punctual light.
 #[derive(Clone, Copy, Debug, PartialEq)]
