@@ -165,8 +165,13 @@ def render_cycles(path, width):
     scene.cycles.pixel_filter_type = "BOX"
     scene.cycles.filter_width = 0.01
     scene.cycles.seed = 1
+    # No world light: a new world's Background node emits a 0.05 grey unless turned off.
     scene.world = bpy.data.worlds.new("black")
     scene.world.color = (0.0, 0.0, 0.0)
+    if scene.world.node_tree is not None:
+        for node in scene.world.node_tree.nodes:
+            if node.type == "BACKGROUND":
+                node.inputs["Strength"].default_value = 0.0
     scene.view_settings.view_transform = "Standard"
     scene.render.resolution_x = width
     scene.render.resolution_y = width * 3 // 4
