@@ -4,8 +4,9 @@
 //! 2 W/m² sun written as 2·683 lx read back as 2 W/m², each emitter's power π·A·luminance(L)
 //! (×2 two-sided) from the script's sizes and strengths (the textured one from the 8-bit sRGB
 //! texels the script wrote, averaged over whole periods of the pattern), the mirrored duplicate
-//! of the Array strip, and the 4:3 camera; then a render of the room whose punctual part scales
-//! by exactly 683 under `--punctual-units radiometric`.
+//! of the Array strip, and the 4:3 camera; a render lit by the sun alone on Lambert surfaces
+//! whose noise-free pixels are ρ/π·E·cos θ of the floor or a wall with the script's sun angles;
+//! and a punctual-only render that scales by 683 (within 5σ) under radiometric units.
 
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
@@ -209,4 +210,59 @@ fn room_punctual_light_scales_by_683_between_unit_systems() {
         (radiometric - want).abs() < tolerance,
         "{radiometric} vs 683 × {photometric} ± {tolerance}"
     );
+}
+
+/// The room lit by its sun alone, on pure Lambert surfaces (specular 0): a pixel whose samples
+/// all agree sees one plane in full sun or nothing lit, so its value is ρ/π·E·cos θ for the floor,
+/// the back wall or the left wall, with the sun's direction from the script's Euler angles
+/// (40° about X, then 30° about Z, on Blender's −Z; glTF (x, y, z) = Blender (x, z, −y)), or 0.
+#[test]
+fn room_sunlit_planes_match_lambert_with_the_script_sun() {
+    let mut scene = room();
+    for m in &mut scene.materials {
+        m.emission = Vec3::ZERO;
+        m.emissive_texture = None;
+        m.specular = 0.0;
+        m.metallic = 0.0;
+    }
+    scene
+        .punctual
+        .retain(|l| l.kind == PunctualKind::Directional);
+    let (a, b) = (40f64.to_radians(), 30f64.to_radians());
+    let sun = [-a.sin() * b.sin(), -a.cos(), -a.sin() * b.cos()];
+    let lit = |n: [f64; 3]| {
+        let cos = -(sun[0] * n[0] + sun[1] * n[1] + sun[2] * n[2]);
+        0.6 / PI * SUN_W_M2 * cos
+    };
+    // Floor (+Y), back wall (+Z, toward the camera), left wall (+X).
+    let planes = [
+        lit([0.0, 1.0, 0.0]),
+        lit([0.0, 0.0, 1.0]),
+        lit([1.0, 0.0, 0.0]),
+    ];
+    let camera = scene.camera.clone().unwrap();
+    let prepared = PreparedScene::new(scene, SelectorKind::Power);
+    let estimator = prepared.estimator(Strategy::LightArea, 1, 1);
+    let opts = RenderOptions {
+        width: 64,
+        height: 48,
+        spp: 8,
+        seed: 3,
+        clamp: None,
+        sampler: SamplerKind::Independent,
+        first_sample: 0,
+    };
+    let (film, _) = render(&estimator, &camera, &opts);
+    let mut seen = [0usize; 3];
+    for p in film
+        .pixels
+        .iter()
+        .filter(|p| p.m2.y == 0.0 && p.mean.y > 0.0)
+    {
+        let value = p.mean.y;
+        let plane = planes.iter().position(|&v| (value - v).abs() < 1e-4 * v);
+        let plane = plane.unwrap_or_else(|| panic!("{value} is none of {planes:?}"));
+        seen[plane] += 1;
+    }
+    assert!(seen.iter().all(|&n| n >= 10), "pixels per plane {seen:?}");
 }
