@@ -310,6 +310,10 @@ const COMMITTED: [(&str, &[&str]); 8] = [
     ("outdoor.glb", &["outdoor"]),
 ];
 
+/// Committed scenes that `gen` does not write (tested in their own files: `room.glb` is a
+/// Blender export, built by `scenes/blender/room.py`, checked by `tests/room.rs`).
+const NOT_GENERATED: [&str; 1] = ["room.glb"];
+
 #[test]
 fn committed_scenes_are_what_gen_writes() {
     let dir = tempfile::tempdir().unwrap();
@@ -317,6 +321,7 @@ fn committed_scenes_are_what_gen_writes() {
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .filter(|f| f.ends_with(".glb") || f.ends_with(".gltf"))
+        .filter(|f| !NOT_GENERATED.contains(&f.as_str()))
         .collect();
     assert_eq!(committed.len(), COMMITTED.len(), "{committed:?}");
     for (file, args) in COMMITTED {
