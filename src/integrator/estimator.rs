@@ -406,20 +406,28 @@ impl Estimator<'_> {
     }
 
     /// Power-heuristic weight of a BSDF sample that hit an emitter, against the light sampler's
-    /// density for the same direction: p_l(light | x) · p(ω | light), solid-angle technique.
+    /// density for the same direction (1 where no light stands for the emission hit).
     fn bsdf_mis_weight(&self, x: &ShadingPoint, hit: &Hit, wi: Vec3, pdf_bsdf: f32) -> f32 {
+        match self.light_density_at(x, hit, wi) {
+            0.0 => 1.0,
+            p_light => power_heuristic(pdf_bsdf, p_light),
+        }
+    }
+
+    /// The density per steradian with which light sampling (solid-angle technique) reaches the
+    /// emitter point a BSDF ray hit: p_l(light | x) · p(ω | light); zero for emission no light
+    /// stands for.
+    fn light_density_at(&self, x: &ShadingPoint, hit: &Hit, wi: Vec3) -> f32 {
         let (Some(selector), Some(l)) =
             (self.selector, self.lights.light_of_triangle(hit.triangle))
         else {
-            return 1.0;
+            return 0.0;
         };
         let Light::Triangle(light) = &self.lights.lights[l] else {
-            return 1.0;
+            return 0.0;
         };
         let p_l = selector.pmf(self.lights, &x.context(), l) as f32;
-        let point = x.p + wi * hit.t;
-        let p_light = p_l * light.pdf_solid_angle(x.p, Technique::SolidAngle, point);
-        power_heuristic(pdf_bsdf, p_light)
+        p_l * light.pdf_solid_angle(x.p, Technique::SolidAngle, x.p + wi * hit.t)
     }
 
     /// Power-heuristic weight of a BSDF sample that left the scene, against the light sampler's

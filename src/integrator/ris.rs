@@ -318,21 +318,6 @@ impl Estimator<'_> {
         Some((candidate, p_bsdf, p_light))
     }
 
-    /// The density per steradian with which one light candidate reaches the emitter point a
-    /// BSDF ray hit: pmf(l | x) · p(ω | l); zero for emission no light stands for.
-    fn light_density_at(&self, x: &ShadingPoint, hit: &crate::accel::Hit, wi: Vec3) -> f32 {
-        let (Some(selector), Some(l)) =
-            (self.selector, self.lights.light_of_triangle(hit.triangle))
-        else {
-            return 0.0;
-        };
-        let Light::Triangle(light) = &self.lights.lights[l] else {
-            return 0.0;
-        };
-        let p_l = selector.pmf(self.lights, &x.context(), l) as f32;
-        p_l * light.pdf_solid_angle(x.p, Technique::SolidAngle, x.p + wi * hit.t)
-    }
-
     /// pmf(environment | x) · p(ω | environment); zero without an environment.
     fn environment_density(&self, x: &ShadingPoint, wi: Vec3) -> f32 {
         let (Some(selector), Some((l, env))) = (self.selector, self.lights.environment()) else {
