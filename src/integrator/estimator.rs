@@ -274,12 +274,10 @@ impl Estimator<'_> {
             return NOTHING;
         }
         counts.shadow_rays += 1;
-        let light_side = if light.normal.dot(wi) < 0.0 {
-            light.normal
-        } else {
-            -light.normal
-        };
-        if self.accel.segment_occluded(x.p, x.ng, s.point, light_side) {
+        if self
+            .accel
+            .segment_occluded(x.p, x.ng, s.point, light.side_toward(-wi))
+        {
             return NOTHING;
         }
         let g = x.ns.dot(wi) * s.jacobian;
@@ -315,10 +313,7 @@ impl Estimator<'_> {
             return NOTHING;
         }
         counts.shadow_rays += 1;
-        if self
-            .accel
-            .occluded(offset_ray_origin(x.p, x.ng), s.wi, f32::INFINITY)
-        {
+        if self.direction_occluded(x, s.wi, f32::INFINITY) {
             return NOTHING;
         }
         let weight = if mis {
@@ -350,18 +345,24 @@ impl Estimator<'_> {
             return Vec3::ZERO;
         }
         counts.shadow_rays += 1;
-        let origin = offset_ray_origin(x.p, x.ng);
-        let blocked = if s.dist.is_finite() {
-            let to_light = x.p + s.wi * s.dist - origin;
-            let dist = to_light.length();
-            self.accel.occluded(origin, to_light / dist, dist)
-        } else {
-            self.accel.occluded(origin, s.wi, f32::INFINITY)
-        };
-        if blocked {
+        if self.direction_occluded(x, s.wi, s.dist) {
             return Vec3::ZERO;
         }
         f * s.li * x.ns.dot(s.wi)
+    }
+
+    /// Whether anything lies between x and the point `dist` along the unit direction `wi` (to
+    /// infinity when `dist` is infinite): the shadow ray of a point light, a directional light or
+    /// the environment, started off the surface.
+    fn direction_occluded(&self, x: &ShadingPoint, wi: Vec3, dist: f32) -> bool {
+        let origin = offset_ray_origin(x.p, x.ng);
+        if dist.is_finite() {
+            let to_light = x.p + wi * dist - origin;
+            let length = to_light.length();
+            self.accel.occluded(origin, to_light / length, length)
+        } else {
+            self.accel.occluded(origin, wi, f32::INFINITY)
+        }
     }
 
     /// Σ over K·N BRDF-sampled directions of f · Le · cosθ / (K · N · p(ω)), each weighted by
@@ -431,13 +432,21 @@ impl Estimator<'_> {
     }
 
     /// Power-heuristic weight of a BSDF sample that left the scene, against the light sampler's
-    /// density for that direction: p_l(environment | x) · p(ω | environment).
+    /// density for that direction (1 without an environment light).
     fn environment_mis_weight(&self, x: &ShadingPoint, wi: Vec3, pdf_bsdf: f32) -> f32 {
+        match self.environment_density(x, wi) {
+            0.0 => 1.0,
+            p_light => power_heuristic(pdf_bsdf, p_light),
+        }
+    }
+
+    /// The density per steradian with which light sampling reaches direction `wi` through the
+    /// environment: p_l(environment | x) · p(ω | environment); zero without one.
+    fn environment_density(&self, x: &ShadingPoint, wi: Vec3) -> f32 {
         let (Some(selector), Some((l, env))) = (self.selector, self.lights.environment()) else {
-            return 1.0;
+            return 0.0;
         };
-        let p_l = selector.pmf(self.lights, &x.context(), l) as f32;
-        power_heuristic(pdf_bsdf, p_l * env.pdf(wi))
+        selector.pmf(self.lights, &x.context(), l) as f32 * env.pdf(wi)
     }
 
     /// Σ over K·N directions of f · Le · cosθ / (K · N · p(ω)), uniform or cosine p(ω).

@@ -148,9 +148,6 @@ impl Estimator<'_> {
         cs: &CameraSample,
         counts: &mut SampleCounts,
     ) -> Vec3 {
-        let Some(_) = self.selector else {
-            return Vec3::ZERO;
-        };
         let mut sum = Vec3::ZERO;
         for k in 0..self.k {
             for n in 0..self.n {
@@ -236,15 +233,10 @@ impl Estimator<'_> {
                 } else {
                     counts.area_samples += 1;
                 }
-                let light_side = if light.normal.dot(s.wi) < 0.0 {
-                    light.normal
-                } else {
-                    -light.normal
-                };
                 let le = self.light_emission(light, s.point, -s.wi);
                 let visibility = Visibility::Segment {
                     point: s.point,
-                    light_side,
+                    light_side: light.side_toward(-s.wi),
                 };
                 (s.wi, le, s.p_x / s.jacobian, visibility, false)
             }
@@ -318,14 +310,6 @@ impl Estimator<'_> {
         Some((candidate, p_bsdf, p_light))
     }
 
-    /// pmf(environment | x) · p(ω | environment); zero without an environment.
-    fn environment_density(&self, x: &ShadingPoint, wi: Vec3) -> f32 {
-        let (Some(selector), Some((l, env))) = (self.selector, self.lights.environment()) else {
-            return 0.0;
-        };
-        selector.pmf(self.lights, &x.context(), l) as f32 * env.pdf(wi)
-    }
-
     /// Traces the kept candidate's shadow ray (none for a BSDF candidate).
     fn candidate_occluded(
         &self,
@@ -333,7 +317,6 @@ impl Estimator<'_> {
         c: &Candidate,
         counts: &mut SampleCounts,
     ) -> bool {
-        let origin = || offset_ray_origin(x.p, x.ng);
         match c.visibility {
             Visibility::Visible => false,
             Visibility::Segment { point, light_side } => {
@@ -342,14 +325,11 @@ impl Estimator<'_> {
             }
             Visibility::Distance(dist) => {
                 counts.shadow_rays += 1;
-                let from = origin();
-                let to_light = x.p + c.wi * dist - from;
-                let d = to_light.length();
-                self.accel.occluded(from, to_light / d, d)
+                self.direction_occluded(x, c.wi, dist)
             }
             Visibility::Infinite => {
                 counts.shadow_rays += 1;
-                self.accel.occluded(origin(), c.wi, f32::INFINITY)
+                self.direction_occluded(x, c.wi, f32::INFINITY)
             }
         }
     }

@@ -172,6 +172,17 @@ impl TriangleLight {
         below(self.p0) && below(self.p0 + self.e1) && below(self.p0 + self.e2)
     }
 
+    /// The unit normal on the side of the triangle that faces unit direction `w` (leaving the
+    /// light toward a receiver): the side a shadow ray's far end is lifted off.
+    #[inline]
+    pub fn side_toward(&self, w: Vec3) -> Vec3 {
+        if self.normal.dot(w) > 0.0 {
+            self.normal
+        } else {
+            -self.normal
+        }
+    }
+
     /// Draws a point for receiver p; None when the sample carries no light (edge-on).
     #[inline]
     pub fn sample(&self, p: Vec3, technique: Technique, u: [f32; 2]) -> Option<TriangleSample> {
