@@ -1,4 +1,5 @@
-//! Light BVH speed: build over 50,000 and 1,000,000 random triangle lights;
+//! Light BVH speed: build over 50,000 and 1,000,000 random triangle lights
+//! (and the tree's size per light);
 //! `sample` and `pmf` per call on 50,000.
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
@@ -58,6 +59,12 @@ fn build(c: &mut Criterion) {
         .measurement_time(Duration::from_secs(20));
     for count in [50_000, 1_000_000] {
         let lights = random_lights(count, 1);
+        let (tree, _) = LightBvh::build(&lights);
+        println!(
+            "{count} lights: {} nodes, {:.1} bytes/light",
+            tree.node_count(),
+            tree.bytes() as f64 / tree.len() as f64
+        );
         group.bench_function(format!("{count}"), |b| {
             b.iter(|| black_box(LightBvh::build(black_box(&lights))))
         });

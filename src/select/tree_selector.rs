@@ -2,7 +2,7 @@
 //! (directional lights and the environment map), which have no position, chosen outside the tree
 //! with probability Φ_infinite / (Φ_infinite + Φ_tree), each ∝ its power (π·R²·E for a
 //! directional light, π·R²·∫L dω for the environment, over the scene's bounding sphere of radius
-//! R). Where the tree's root importance is 0 (nothing in it can reach the shading point) the
+//! R). Where nothing in the tree can reach the shading point (every root lane's importance is 0) the
 //! infinite lights take all the probability.
 
 use glam::Vec3;
@@ -110,7 +110,7 @@ impl BvhSelector {
     /// The probability of choosing from the tree at this shading point.
     #[inline]
     fn p_tree_at(&self, ctx: &ShadingContext) -> f64 {
-        if self.infinite.is_empty() || self.tree.root_importance(ctx.p, ctx.n) > 0.0 {
+        if self.infinite.is_empty() || self.tree.can_reach(ctx.p, ctx.n) {
             self.p_tree
         } else {
             0.0

@@ -1,61 +1,63 @@
 //! Light BVH: chooses one emitter among very many with probability roughly
 //! proportional to its contribution at a shading point, after Conty Estevez &
 //! Kulla 2018, "Importance Sampling of Many Lights with Adaptive Tree
-//! Splitting" (the same scheme as pbrt-v4's BVH light sampler).
+//! Splitting" (the scheme of pbrt-v4's BVH light sampler), with 8-wide nodes
+//! evaluated in SIMD lanes (as in sergcpp/Ray's light tree).
 //!
 //! Each node bounds a set of emitters by a box, their total power Φ, a cone of
 //! normals (axis w, half-angle θo) and the spread θe of emission beyond those
-//! normals. [`LightBounds::importance`] turns these into an upper bound on what
+//! normals. The importance (`lanes`) turns these into an upper bound on what
 //! the set can send to a receiver; [`LightBvh::sample`] walks down from the
-//! root choosing a child with probability proportional to its importance, and
-//! [`LightBvh::pmf`] recomputes the probability of any given light.
+//! root choosing one of a node's (up to) eight children with probability
+//! proportional to its importance, and [`LightBvh::pmf`] recomputes the
+//! probability of any given light by the same products.
 //!
-//! What is stored, and why:
-//! - Nodes are 32 bytes (two per cache line), in depth-first order: the left
-//!   child of node i is i + 1 and the node keeps the index of its right child.
-//! - The box is kept as 16-bit coordinates on a grid spanning the root's box,
-//!   the cone axis as a 2×16-bit octahedral code, cos θo and cos θe as 15-bit
-//!   numbers, plus a two-sided and a leaf bit, Φ as an f32 and the radius of
-//!   a sphere holding the decoded box (so `importance` need not recompute it).
-//!   Every rounding makes the bound larger (box rounded outwards, cosines
-//!   rounded down, θo widened by the axis' coding error), so quantisation can
-//!   cost efficiency but never gives 0 to a node that holds a light able to
-//!   reach the receiver.
-//! - The lights are renumbered into leaf order, so a subtree covers a
-//!   contiguous range of light ids: a leaf keeps its light's id, and the first
-//!   id of a right child's range is its parent's plus half the index distance
-//!   between them. `pmf` then finds a light by descending towards its id,
-//!   multiplying the very same per-node probabilities that `sample` does, at
-//!   any depth and without per-light bit trails or parent links.
+//! Two trees, one after the other:
+//! - The build tree is binary (top-down, binned cost over all three axes: Φ
+//!   times the orientation measure M_Ω times the surface area, scaled by how
+//!   thin the node is along the split axis; subtrees in parallel with rayon).
+//!   Its 32-byte nodes store bounds quantised so that every rounding enlarges
+//!   them: the box as 16-bit codes on a grid over the root box (rounded
+//!   outwards), the cone axis as an octahedral code with θo widened by its
+//!   coding error, cosines rounded down. Lights are renumbered into leaf order,
+//!   so every subtree covers a contiguous range of light ids.
+//! - The traversed tree is 8-wide (`wide`): the binary tree collapsed by
+//!   opening the largest child until eight are gathered, each child's decoded
+//!   bounds stored as f32 lanes (bounding sphere, signed Φ, cone). A lane keeps
+//!   the first light id of its range, so `pmf` finds the lane holding a light
+//!   without parent links or per-light bit trails. Quantisation can cost
+//!   efficiency but never gives 0 to a child that holds a light able to reach
+//!   the receiver.
 //!
-//! The build is top-down with a binned cost over all three axes (Φ times the
-//! orientation measure M_Ω times the surface area, scaled by how thin the node
-//! is along the split axis), running subtrees in parallel with rayon.
-//!
-//! Files: `bounds` (LightBounds, importance, cone algebra), `quantise` (grid,
-//! cosine and octahedral codes), `node` (the 32-byte node), `traverse`
-//! (LightBvh: build entry, sample, pmf), `split` (binned split choice),
-//! `build` (parallel subtree construction), `tests`.
+//! Files: `bounds` (LightBounds, cone algebra), `quantise` (grid, cosine and
+//! octahedral codes), `node` (the 32-byte build node), `split` (binned split
+//! choice), `build` (parallel subtree construction), `wide` (8-wide nodes and
+//! the collapse), `lanes` (the SIMD importance), `traverse` (LightBvh: build
+//! entry, sample, pmf), `tests`.
 
 mod bounds;
 mod build;
+mod lanes;
 mod node;
 mod quantise;
 mod split;
 #[cfg(test)]
 mod tests;
 mod traverse;
+mod wide;
 
 use build::*;
+use lanes::*;
 use node::*;
 use quantise::*;
 use split::*;
+use wide::*;
 
 pub use bounds::LightBounds;
 use bounds::*;
 pub use traverse::LightBvh;
 
-/// Absolute tolerance on the cosines compared in `importance`, larger than the
+/// Absolute tolerance on the cosines compared in the importance, larger than the
 /// f32 rounding of those cosines: a node is only rejected with this margin.
 const COS_SLACK: f32 = 2e-6;
 /// Angle (radians) added to every cone that is merged or quantised here, larger

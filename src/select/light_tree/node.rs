@@ -1,7 +1,5 @@
-//! One 32-byte tree node (quantised bounds, leaf bit, link to the right child)
-//! and the split of a choice between two children in proportion to importance.
-
-use glam::Vec3;
+//! One 32-byte node of the binary build tree (quantised bounds, leaf bit, link
+//! to the right child), from which [`super::wide::collapse`] makes wide nodes.
 
 use super::*;
 
@@ -21,7 +19,7 @@ pub(super) struct Node {
     /// of a right child's range is its parent's plus half the distance from
     /// parent to right child (the left subtree's 2k − 1 nodes hold k lights).
     pub(super) link: u32,
-    /// [`bounding_radius`] of the decoded box, precomputed for `importance`.
+    /// [`bounding_radius`] of the decoded box.
     pub(super) radius: f32,
 }
 
@@ -72,24 +70,9 @@ impl Node {
         }
     }
 
-    #[inline(always)]
-    pub(super) fn importance(&self, grid: &Grid, p: Vec3, n: Vec3) -> f32 {
-        self.bounds(grid)
-            .importance_with_radius(p, n, |_, _| self.radius)
-    }
-
     /// First light id of the right child's range, `first` being this
     /// interior node's, at `index`.
     pub(super) fn right_first(&self, index: usize, first: usize) -> usize {
         first + (self.link as usize - index) / 2
     }
-}
-
-/// Probabilities (left, right) of the two children from their importances,
-/// in f64 (a child of importance 0 gets exactly 0, its sibling exactly 1);
-/// `None` when both are 0.
-pub(super) fn split_probabilities(left: f32, right: f32) -> Option<(f64, f64)> {
-    let (l, r) = (f64::from(left), f64::from(right));
-    let total = l + r;
-    (total > 0.0).then(|| (l / total, r / total))
 }

@@ -5,7 +5,6 @@ use super::*;
 use glam::{DVec3, Vec3};
 use rand_core::Rng as _;
 use rand_pcg::Pcg32;
-use std::time::Instant;
 
 /// Seeded random numbers for the tests.
 struct Rand(Pcg32);
@@ -192,41 +191,50 @@ fn receivers(rng: &mut Rand, scene: &Scene, count: usize) -> Vec<(Vec3, Vec3)> {
     out
 }
 
+/// The importance of one light's bounds at (p, n), as the tree sees it: the
+/// root lane of a tree holding only that light.
+fn importance(b: &LightBounds, p: Vec3, n: Vec3) -> f32 {
+    let (bvh, _) = LightBvh::build(&[*b]);
+    bvh.nodes
+        .first()
+        .map_or(0.0, |root| importances(root, p, n)[0])
+}
+
+/// Interior lanes: (lane, child node index) of wide node `i`.
+fn interior_lanes(bvh: &LightBvh, i: usize) -> impl Iterator<Item = (usize, usize)> + '_ {
+    let node = &bvh.nodes[i];
+    (0..LANES)
+        .filter(|&k| node.first[k] != EMPTY_LANE && node.child[k] & LIGHT_LANE == 0)
+        .map(|k| (k, node.child[k] as usize))
+}
+
+/// Number of wide nodes on the longest root-to-leaf path.
 fn max_depth(bvh: &LightBvh) -> usize {
     let mut deepest = 0;
-    let mut stack = vec![(0usize, 0usize)];
+    let mut stack = vec![(0usize, 1usize)];
     while let Some((i, depth)) = stack.pop() {
-        let Some(node) = bvh.nodes.get(i) else {
+        if i >= bvh.nodes.len() {
             continue;
-        };
-        deepest = deepest.max(depth);
-        if !node.is_leaf() {
-            stack.push((i + 1, depth + 1));
-            stack.push((node.link as usize, depth + 1));
         }
+        deepest = deepest.max(depth);
+        stack.extend(interior_lanes(bvh, i).map(|(_, child)| (child, depth + 1)));
     }
     deepest
 }
 
-/// Probability that `sample` stops at a node whose children both have
+/// Probability that `sample` stops at a node whose lanes all have
 /// importance 0 (it then returns `None`).
 fn dead_end_mass(bvh: &LightBvh, p: Vec3, n: Vec3) -> f64 {
     let mut mass = 0.0;
     let mut stack = vec![(0usize, 1.0f64)];
     while let Some((i, weight)) = stack.pop() {
-        if bvh.nodes[i].is_leaf() {
-            continue;
-        }
-        match bvh.child_probabilities(i, p, n) {
+        match bvh.probabilities(i, p, n) {
             None => mass += weight,
-            Some((l, r)) => {
-                if l > 0.0 {
-                    stack.push((i + 1, weight * l));
-                }
-                if r > 0.0 {
-                    stack.push((bvh.nodes[i].link as usize, weight * r));
-                }
-            }
+            Some(probabilities) => stack.extend(
+                interior_lanes(bvh, i)
+                    .filter(|&(k, _)| probabilities[k] > 0.0)
+                    .map(|(k, child)| (child, weight * probabilities[k])),
+            ),
         }
     }
     mass
@@ -265,7 +273,7 @@ fn check_frequencies(bvh: &LightBvh, p: Vec3, n: Vec3, m: usize, rng: &mut Rand)
         }
     }
     let dead = dead_end_mass(bvh, p, n);
-    if bvh.root_importance(p, n) > 0.0 {
+    if bvh.can_reach(p, n) {
         assert!(
             (total + dead - 1.0).abs() < 1e-6,
             "Σ pmf {total} + dead ends {dead}"
@@ -285,8 +293,9 @@ fn check_frequencies(bvh: &LightBvh, p: Vec3, n: Vec3, m: usize, rng: &mut Rand)
 }
 
 #[test]
-fn node_is_32_bytes() {
+fn nodes_are_32_and_384_bytes() {
     assert_eq!(std::mem::size_of::<Node>(), 32);
+    assert_eq!(std::mem::size_of::<WideNode>(), 384);
 }
 
 #[test]
@@ -299,7 +308,17 @@ fn sampled_frequencies_match_pmf() {
             let scene = random_scene(&mut scene_rng, count);
             let (bvh, order) = LightBvh::build(&scene.bounds);
             assert_eq!((bvh.len(), order.len()), (count, count));
-            assert_eq!(bvh.node_count(), 2 * count - 1);
+            // Every light in one lane, every node but the root in one lane.
+            let lanes = |leaf: bool| {
+                let is = |node: &WideNode, k: usize| {
+                    node.first[k] != EMPTY_LANE && (node.child[k] & LIGHT_LANE != 0) == leaf
+                };
+                bvh.nodes
+                    .iter()
+                    .map(|node| (0..LANES).filter(|&k| is(node, k)).count())
+                    .sum::<usize>()
+            };
+            assert_eq!((lanes(true), lanes(false) + 1), (count, bvh.node_count()));
             for (p, n) in receivers(&mut rng, &scene, 6) {
                 let dead = check_frequencies(&bvh, p, n, 10_000, &mut rng);
                 points += 1;
@@ -325,14 +344,13 @@ fn contributing_lights_have_positive_pmf() {
             let (bvh, order) = LightBvh::build(&scene.bounds);
             for (p, n) in receivers(&mut rng, &scene, 120) {
                 for node in &bvh.nodes {
-                    let i = node.importance(&bvh.grid, p, n);
-                    assert!(i.is_finite() && i >= 0.0);
+                    let lanes = importances(node, p, n);
+                    assert!(lanes.iter().all(|i| i.is_finite() && *i >= 0.0));
                 }
                 for (light, &original) in order.iter().enumerate() {
                     let original = original as usize;
                     if scene.emitters[original].contributes(p, n, &mut rng) {
                         checked += 1;
-                        assert!(scene.bounds[original].importance(p, n) > 0.0);
                         assert!(
                             bvh.pmf(p, n, light) > 0.0,
                             "light {original} at p {p} n {n}"
@@ -375,12 +393,12 @@ fn lights_close_to_grazing_receivers_are_kept() {
     let (bvh, _) = LightBvh::build(&[b]);
     for (p, n) in cases {
         if tri.contributes(p, n, &mut rng) {
-            assert!(b.importance(p, n) > 0.0, "p {p} n {n}");
+            assert!(importance(&b, p, n) > 0.0, "p {p} n {n}");
             assert!(bvh.pmf(p, n, 0) > 0.0, "p {p} n {n}");
         }
     }
     // On the emitter's plane p is on neither side: no light, but finite.
-    let on_plane = b.importance(Vec3::new(3.0, 0.5, 0.0), Vec3::X * -1.0);
+    let on_plane = importance(&b, Vec3::new(3.0, 0.5, 0.0), Vec3::X * -1.0);
     assert!(on_plane.is_finite() && on_plane >= 0.0);
 }
 
@@ -395,9 +413,9 @@ fn nodes_behind_the_tangent_plane_get_zero() {
         cos_theta_e: 0.0,
         two_sided: true,
     };
-    assert_eq!(b.importance(Vec3::ZERO, Vec3::Z), 0.0);
-    assert!(b.importance(Vec3::ZERO, -Vec3::Z) > 0.0);
-    assert!(b.importance(Vec3::ZERO, Vec3::ZERO) > 0.0);
+    assert_eq!(importance(&b, Vec3::ZERO, Vec3::Z), 0.0);
+    assert!(importance(&b, Vec3::ZERO, -Vec3::Z) > 0.0);
+    assert!(importance(&b, Vec3::ZERO, Vec3::ZERO) > 0.0);
     // A tree whose lights all lie below the plane z = 0.
     let mut rng = Rand::new(4);
     let mut scene = random_scene(&mut rng, 300);
@@ -409,7 +427,7 @@ fn nodes_behind_the_tangent_plane_get_zero() {
     let (bvh, _) = LightBvh::build(&scene.bounds);
     let (p, n) = (Vec3::new(0.0, 0.0, 0.5), Vec3::Z);
     for node in &bvh.nodes {
-        assert_eq!(node.importance(&bvh.grid, p, n), 0.0);
+        assert_eq!(importances(node, p, n), [0.0; LANES]);
     }
     assert_eq!(bvh.sample(p, n, 0.5), None);
     assert!((0..bvh.len()).all(|l| bvh.pmf(p, n, l) == 0.0));
@@ -422,15 +440,12 @@ fn nodes_behind_the_tangent_plane_get_zero() {
         hi: Vec3::new(0.5, 0.5, 1.0),
         ..b
     };
-    assert_eq!(away.importance(Vec3::ZERO, Vec3::Z), 0.0);
-    assert!(
-        LightBounds {
-            two_sided: true,
-            ..away
-        }
-        .importance(Vec3::ZERO, Vec3::Z)
-            > 0.0
-    );
+    assert_eq!(importance(&away, Vec3::ZERO, Vec3::Z), 0.0);
+    let facing_both_ways = LightBounds {
+        two_sided: true,
+        ..away
+    };
+    assert!(importance(&facing_both_ways, Vec3::ZERO, Vec3::Z) > 0.0);
 }
 
 #[test]
@@ -460,11 +475,13 @@ fn degenerate_inputs_stay_finite() {
                 ..point
             },
         ] {
-            let i = b.importance(p, n);
+            let i = importance(&b, p, n);
             assert!(i.is_finite() && i > 0.0, "{p} {n}: {i}");
         }
     }
-    assert_eq!(point.importance(Vec3::NAN, Vec3::Z), 0.0);
+    let (single, _) = LightBvh::build(&[point]);
+    assert_eq!(single.sample(Vec3::NAN, Vec3::Z, 0.5), None);
+    assert_eq!(single.pmf(Vec3::NAN, Vec3::Z, 0), 0.0);
     // Excluded lights: zero or non-finite power or bounds.
     let bad = [
         LightBounds { phi: 0.0, ..point },
@@ -563,7 +580,7 @@ fn deep_trees_keep_exact_pmf() {
     let (bvh, _) = LightBvh::build(&lights);
     let depth = max_depth(&bvh);
     println!("chain: {} lights, depth {depth}", bvh.len());
-    assert!(depth > 64);
+    assert!(depth > chain as usize / LANES, "depth {depth}");
     let mut deepest_sampled = 0;
     for _ in 0..300 {
         // Just above a chain light, or anywhere near the chain.
@@ -580,12 +597,12 @@ fn deep_trees_keep_exact_pmf() {
             }
         }
         let total: f64 = (0..bvh.len()).map(|l| bvh.pmf(p, n, l)).sum();
-        if bvh.root_importance(p, n) > 0.0 {
+        if bvh.can_reach(p, n) {
             assert!((total + dead_end_mass(&bvh, p, n) - 1.0).abs() < 1e-6);
         }
     }
     println!("deepest sampled leaf: {deepest_sampled}");
-    assert!(deepest_sampled > 64);
+    assert!(deepest_sampled > chain as usize / LANES);
     let x = 0.9f32.powi(70);
     let (p, n) = (Vec3::new(x * 1.005, x * 0.005, x * 0.01), -Vec3::Z);
     check_frequencies(&bvh, p, n, 10_000, &mut rng);
@@ -615,35 +632,97 @@ fn deep_trees_keep_exact_pmf() {
     }
 }
 
-/// Depth of the leaf of `light`, found by its id range.
+/// Depth (in wide nodes) of the lane holding `light`, found by id ranges.
 fn leaf_depth(bvh: &LightBvh, light: usize) -> usize {
-    let (mut index, mut first, mut depth) = (0, 0, 0);
-    while !bvh.nodes[index].is_leaf() {
-        let right_first = bvh.nodes[index].right_first(index, first);
-        (index, first) = if light >= right_first {
-            (bvh.nodes[index].link as usize, right_first)
-        } else {
-            (index + 1, first)
-        };
-        depth += 1;
+    let (mut index, mut depth) = (0, 1);
+    loop {
+        let node = &bvh.nodes[index];
+        let lane = node.lane_of(light as u32).expect("light in the tree");
+        if node.child[lane] & LIGHT_LANE != 0 {
+            return depth;
+        }
+        (index, depth) = (node.child[lane] as usize, depth + 1);
     }
-    depth
+}
+
+/// The importance bound written with angles (acos, asin) in f64, for
+/// comparison with the lanes' (cos, sin) arithmetic; `None` near a threshold.
+fn importance_with_angles(b: &LightBounds, radius: f32, p: Vec3, n: Vec3) -> Option<f64> {
+    let centre = ((b.lo + b.hi) * 0.5).as_dvec3();
+    let (p, n) = (p.as_dvec3(), n.as_dvec3());
+    let (r, d) = (f64::from(radius), p.distance(centre));
+    if (d - r).abs() < 1e-3 * r.max(1e-3) {
+        return None;
+    }
+    let mut emitted = 1.0;
+    let mut received = 1.0;
+    if d > r {
+        let theta_b = (r / d).asin();
+        let theta_w = angle_between(b.w.as_dvec3(), p - centre);
+        let theta_w = if b.two_sided {
+            theta_w.min(std::f64::consts::PI - theta_w)
+        } else {
+            theta_w
+        };
+        let theta_o = f64::from(b.cos_theta_o).clamp(-1.0, 1.0).acos();
+        let theta_e = f64::from(b.cos_theta_e).clamp(-1.0, 1.0).acos();
+        let theta_p = (theta_w - theta_o).max(0.0) - theta_b;
+        let theta_p = theta_p.max(0.0);
+        if (theta_p - theta_e).abs() < 1e-3 {
+            return None;
+        }
+        emitted = if theta_p < theta_e {
+            theta_p.cos()
+        } else {
+            0.0
+        };
+        if n != DVec3::ZERO {
+            let theta_r = (angle_between(n, centre - p) - theta_b).max(0.0);
+            if (theta_r - std::f64::consts::FRAC_PI_2).abs() < 1e-3 {
+                return None;
+            }
+            received = theta_r.cos().max(0.0);
+        }
+    }
+    let d_sq = (d * d).max(r * r);
+    Some(f64::from(b.phi) * emitted * received / d_sq)
 }
 
 #[test]
-fn build_time_and_size() {
-    for count in [50_000, 1_000_000] {
-        let mut rng = Rand::new(9);
-        let scene = random_scene(&mut rng, count);
-        let start = Instant::now();
-        let (bvh, _) = LightBvh::build(&scene.bounds);
-        let seconds = start.elapsed().as_secs_f64();
-        println!(
-            "{count} lights: build {seconds:.3} s (beside the other tests), depth {}, {} nodes, \
-             {:.1} bytes/light",
-            max_depth(&bvh),
-            bvh.node_count(),
-            bvh.bytes() as f64 / bvh.len() as f64
-        );
+fn lane_importance_matches_the_bound_written_with_angles() {
+    let mut rng = Rand::new(10);
+    let scene = random_scene(&mut rng, 2000);
+    let (bvh, _) = LightBvh::build(&scene.bounds);
+    let mut compared = 0;
+    for (p, n) in receivers(&mut rng, &scene, 300) {
+        for node in &bvh.nodes {
+            let lanes = importances(node, p, n);
+            for k in (0..LANES).filter(|&k| node.first[k] != EMPTY_LANE) {
+                let phi = node.signed_phi[k];
+                let c = Vec3::new(node.centre[0][k], node.centre[1][k], node.centre[2][k]);
+                let w = Vec3::new(node.axis[0][k], node.axis[1][k], node.axis[2][k]);
+                let b = LightBounds {
+                    lo: c,
+                    hi: c,
+                    phi: phi.abs(),
+                    w,
+                    cos_theta_o: node.cos_o[k],
+                    cos_theta_e: node.cos_e[k],
+                    two_sided: phi < 0.0,
+                };
+                let Some(expected) = importance_with_angles(&b, node.radius[k], p, n) else {
+                    continue;
+                };
+                let got = f64::from(lanes[k]);
+                let tolerance = 1e-3 * expected + f64::from(f32::MIN_POSITIVE);
+                assert!(
+                    (got - expected).abs() <= tolerance || (expected == 0.0 && got > 0.0),
+                    "lane {k} at p {p} n {n}: {got} vs {expected}"
+                );
+                compared += usize::from(expected > 0.0);
+            }
+        }
     }
+    println!("{compared} positive lane importances compared");
+    assert!(compared > 1000);
 }

@@ -12,8 +12,8 @@ use super::*;
 /// A light bounding volume hierarchy over emitters' [`LightBounds`].
 #[derive(Clone, Debug)]
 pub struct LightBvh {
-    pub(super) nodes: Vec<Node>,
-    pub(super) grid: Grid,
+    pub(super) nodes: Vec<WideNode>,
+    pub(super) lights: usize,
 }
 
 impl LightBvh {
@@ -51,28 +51,27 @@ impl LightBvh {
             tree.build(&grid, centroids);
         }
         let order = prims.iter().map(|p| p.id).collect();
-        (LightBvh { nodes, grid }, order)
+        let tree = LightBvh {
+            nodes: collapse(&nodes, &grid),
+            lights: prims.len(),
+        };
+        (tree, order)
     }
 
-    /// The root's importance at (p, n): 0 when no light in the tree can reach p's upper
-    /// hemisphere.
-    pub fn root_importance(&self, p: Vec3, n: Vec3) -> f32 {
-        self.nodes
-            .first()
-            .map_or(0.0, |root| root.importance(&self.grid, p, n))
+    /// Whether some light in the tree may reach the upper hemisphere of a
+    /// receiver at (p, n) (some root lane has positive importance).
+    pub fn can_reach(&self, p: Vec3, n: Vec3) -> bool {
+        self.probabilities(0, p, n).is_some()
     }
 
     /// Chooses a light (its id in leaf order) with probability proportional
-    /// to importance at each level, from `u` ∈ [0, 1): at a node, the left
-    /// child is taken when u < I_l/(I_l + I_r), and u is rescaled to [0, 1)
-    /// within the chosen part. Returns the light and its probability, or
-    /// `None` when the tree is empty, the root's importance is 0, a node is
-    /// reached whose children both have importance 0, or the probability
-    /// underflows to 0.
+    /// to importance at each level, from `u` ∈ [0, 1): at a wide node, lane k
+    /// is taken when u falls in its share [P_<k, P_<k + P_k) of [0, 1), and u
+    /// is rescaled to [0, 1) within that share. Returns the light and its
+    /// probability (the product of the chosen lanes' P_k), or `None` when the
+    /// tree is empty, (p, n) is not finite, a node is reached whose lanes all
+    /// have importance 0, or the probability underflows to 0.
     pub fn sample(&self, p: Vec3, n: Vec3, u: f64) -> Option<(usize, f64)> {
-        if self.nodes.first()?.importance(&self.grid, p, n) == 0.0 {
-            return None;
-        }
         let mut u = if u >= 0.0 {
             u.min(LARGEST_BELOW_ONE)
         } else {
@@ -81,88 +80,129 @@ impl LightBvh {
         let mut index = 0;
         let mut pmf = 1.0;
         loop {
-            let node = self.nodes.get(index)?;
-            if node.is_leaf() {
-                return (pmf > 0.0).then_some((node.link as usize, pmf));
+            let probabilities = self.probabilities(index, p, n)?;
+            let (lane, below) = choose_lane(&probabilities, u);
+            let probability = probabilities[lane];
+            pmf *= probability;
+            u = ((u - below) / probability).clamp(0.0, LARGEST_BELOW_ONE);
+            let child = self.nodes[index].child[lane];
+            if child & LIGHT_LANE != 0 {
+                return (pmf > 0.0).then_some(((child & !LIGHT_LANE) as usize, pmf));
             }
-            let (p_left, p_right) = self.child_probabilities(index, p, n)?;
-            if u < p_left {
-                pmf *= p_left;
-                u = (u / p_left).min(LARGEST_BELOW_ONE);
-                index += 1;
-            } else {
-                pmf *= p_right;
-                u = ((u - p_left) / p_right).min(LARGEST_BELOW_ONE);
-                index = node.link as usize;
-            }
+            index = child as usize;
         }
     }
 
     /// The probability that [`sample`](Self::sample) returns `light` at
     /// (`p`, `n`), bit-identical to the value it returns with it: descends
-    /// towards the child whose id range holds `light`, multiplying the same
+    /// towards the lane whose id range holds `light`, multiplying the same
     /// per-node probabilities. 0 for ids ≥ [`len`](Self::len).
     pub fn pmf(&self, p: Vec3, n: Vec3, light: usize) -> f64 {
-        let Some(root) = self.nodes.first() else {
-            return 0.0;
-        };
-        if light >= self.len() || root.importance(&self.grid, p, n) == 0.0 {
+        if light >= self.lights {
             return 0.0;
         }
-        let (mut index, mut first) = (0, 0);
+        let light = light as u32;
+        let mut index = 0;
         let mut pmf = 1.0;
         loop {
-            let Some(node) = self.nodes.get(index) else {
+            let Some(probabilities) = self.probabilities(index, p, n) else {
                 return 0.0;
             };
-            if node.is_leaf() {
-                return pmf;
-            }
-            let Some((p_left, p_right)) = self.child_probabilities(index, p, n) else {
+            let node = &self.nodes[index];
+            let Some(lane) = node.lane_of(light) else {
                 return 0.0;
             };
-            let right_first = node.right_first(index, first);
-            let (probability, next) = if light >= right_first {
-                (p_right, node.link as usize)
-            } else {
-                (p_left, index + 1)
-            };
-            if probability == 0.0 {
+            pmf *= probabilities[lane];
+            if pmf == 0.0 {
                 return 0.0;
             }
-            pmf *= probability;
-            if light >= right_first {
-                first = right_first;
+            let child = node.child[lane];
+            if child & LIGHT_LANE != 0 {
+                return if child & !LIGHT_LANE == light {
+                    pmf
+                } else {
+                    0.0
+                };
             }
-            index = next;
+            index = child as usize;
         }
     }
 
     /// Number of lights in the tree.
     pub fn len(&self) -> usize {
-        self.nodes.len().div_ceil(2)
+        self.lights
     }
 
     /// Whether the tree holds no light.
     pub fn is_empty(&self) -> bool {
-        self.nodes.is_empty()
+        self.lights == 0
     }
 
-    /// Number of nodes (2·len − 1).
+    /// Number of (8-wide) nodes.
     pub fn node_count(&self) -> usize {
         self.nodes.len()
     }
 
     /// Heap bytes held by the tree.
     pub fn bytes(&self) -> usize {
-        self.nodes.capacity() * std::mem::size_of::<Node>()
+        self.nodes.capacity() * std::mem::size_of::<WideNode>()
     }
 
-    /// Child probabilities at interior node `index` (see [`split_probabilities`]).
-    pub(super) fn child_probabilities(&self, index: usize, p: Vec3, n: Vec3) -> Option<(f64, f64)> {
-        let right = self.nodes.get(index)?.link as usize;
-        let left = self.nodes.get(index + 1)?.importance(&self.grid, p, n);
-        let right = self.nodes.get(right)?.importance(&self.grid, p, n);
-        split_probabilities(left, right)
+    /// The lanes' probabilities P_k = I_k / Σ I at wide node `index`, in f64
+    /// (a lane of importance 0 gets exactly 0); `None` when every lane's
+    /// importance is 0, the node does not exist, or (p, n) is not finite.
+    /// The children's first cache lines are prefetched, as the descent
+    /// continues into one of them.
+    #[inline(always)]
+    pub(super) fn probabilities(&self, index: usize, p: Vec3, n: Vec3) -> Option<[f64; LANES]> {
+        let node = self.nodes.get(index)?;
+        if !(p.is_finite() && n.is_finite()) {
+            return None;
+        }
+        for &child in &node.child {
+            if child & LIGHT_LANE == 0 {
+                prefetch(&self.nodes, child as usize);
+            }
+        }
+        let importances = importances(node, p, n).map(f64::from);
+        let total: f64 = importances.iter().sum();
+        (total > 0.0).then(|| {
+            let inv_total = total.recip();
+            importances.map(|i| i * inv_total)
+        })
     }
+}
+
+/// The lane whose share of [0, 1) holds `u`, and the sum of the shares below
+/// it; a lane of probability 0 is never returned (rounding that leaves u past
+/// the last share gives the last lane of positive probability).
+#[inline(always)]
+fn choose_lane(probabilities: &[f64; LANES], u: f64) -> (usize, f64) {
+    let mut below = 0.0;
+    let mut last = (0, 0.0);
+    for (lane, &probability) in probabilities.iter().enumerate() {
+        if probability > 0.0 {
+            if u < below + probability {
+                return (lane, below);
+            }
+            last = (lane, below);
+        }
+        below += probability;
+    }
+    last
+}
+
+/// Asks the CPU to start loading the node at `index` (no effect elsewhere).
+#[inline(always)]
+fn prefetch(nodes: &[WideNode], index: usize) {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(node) = nodes.get(index) {
+        // SAFETY: prefetching is a hint and never faults; the pointer is in bounds.
+        unsafe {
+            use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+            _mm_prefetch::<_MM_HINT_T0>((node as *const WideNode).cast());
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (nodes, index);
 }
