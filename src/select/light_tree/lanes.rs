@@ -1,6 +1,6 @@
 //! The importance of a wide node's eight children at a receiver, computed in
-//! SIMD lanes (f32x8) without trigonometry: pbrt-v4's `LightBounds::Importance`
-//! bound, with each child's box seen as its bounding sphere.
+//! SIMD lanes without trigonometry: pbrt-v4's `LightBounds::Importance` bound,
+//! with each child's box seen as its bounding sphere.
 //!
 //! For a child with sphere (c, r), power Φ, normal cone (w, θo) and spread θe,
 //! at receiver p with unit normal n, d = |p − c|, θb = asin(r/d):
@@ -12,73 +12,95 @@
 //! so f32 rounding never rejects a child that can reach p's upper hemisphere.
 //! Positive results lie in [f32::MIN_POSITIVE, f32::MAX]; unused lanes give 0.
 
-use ::wide::f32x8;
 use glam::Vec3;
 
 use super::*;
 
-type Lanes = f32x8;
-
-const ZERO: Lanes = Lanes::ZERO;
-const ONE: Lanes = Lanes::ONE;
-
+/// The larger of a and b (b when either is NaN), as one SIMD max.
 #[inline(always)]
-fn load(values: &[f32; LANES]) -> Lanes {
-    Lanes::from(*values)
+fn max(a: f32, b: f32) -> f32 {
+    if a > b {
+        a
+    } else {
+        b
+    }
 }
 
 /// sin θ from cos θ, θ ∈ [0, π], as √((1 − c)(1 + c)) (accurate near ±1).
 #[inline(always)]
-fn sin_of(cos: Lanes) -> Lanes {
-    ((ONE - cos) * (ONE + cos)).max(ZERO).sqrt()
+fn sin_of(cos: f32) -> f32 {
+    max((1.0 - cos) * (1.0 + cos), 0.0).sqrt()
 }
 
 /// (cos, sin) of max(0, α − β) from those of α and β, α, β ∈ [0, π].
 #[inline(always)]
-fn minus(cos_a: Lanes, sin_a: Lanes, cos_b: Lanes, sin_b: Lanes) -> (Lanes, Lanes) {
-    let within = cos_a.simd_ge(cos_b);
-    let cos = within.select(ONE, cos_a * cos_b + sin_a * sin_b);
-    let sin = within.select(ZERO, (sin_a * cos_b - cos_a * sin_b).max(ZERO));
-    (cos, sin)
+fn minus(cos_a: f32, sin_a: f32, cos_b: f32, sin_b: f32) -> (f32, f32) {
+    if cos_a >= cos_b {
+        (1.0, 0.0)
+    } else {
+        (
+            cos_a * cos_b + sin_a * sin_b,
+            max(sin_a * cos_b - cos_a * sin_b, 0.0),
+        )
+    }
 }
 
 /// The importance of each lane of `node` at receiver `p` with unit normal `n`
-/// (`Vec3::ZERO`: no receiver term). `p` and `n` must be finite.
+/// (`Vec3::ZERO`: no receiver term). `p` and `n` must be finite. Written lane
+/// by lane over the node's field arrays, which the compiler turns into SIMD
+/// across the eight lanes (8-wide where the caller enables AVX).
 #[inline(always)]
 pub(super) fn importances(node: &WideNode, p: Vec3, n: Vec3) -> [f32; LANES] {
-    let to_p = [0, 1, 2].map(|k| Lanes::splat(p[k]) - load(&node.centre[k]));
+    let receiver = n != Vec3::ZERO;
+    let mut out = [0.0; LANES];
+    for (k, out) in out.iter_mut().enumerate() {
+        *out = lane(node, k, p, n, receiver);
+    }
+    out
+}
+
+#[inline(always)]
+fn lane(node: &WideNode, k: usize, p: Vec3, n: Vec3, receiver: bool) -> f32 {
+    let to_p = [
+        p.x - node.centre[0][k],
+        p.y - node.centre[1][k],
+        p.z - node.centre[2][k],
+    ];
     let dist_sq = to_p[0] * to_p[0] + to_p[1] * to_p[1] + to_p[2] * to_p[2];
-    let radius = load(&node.radius);
+    let radius = node.radius[k];
     let radius_sq = radius * radius;
-    let outside = dist_sq.simd_gt(radius_sq);
-    let inv_dist = ONE / dist_sq.sqrt();
+    let inv_dist = 1.0 / dist_sq.sqrt();
     let dir = to_p.map(|t| t * inv_dist);
-    let sin_b = (radius * inv_dist).min(ONE);
+    let sin_b = radius * inv_dist;
+    let sin_b = if sin_b < 1.0 { sin_b } else { 1.0 };
     let cos_b = sin_of(sin_b);
 
-    let signed_phi = load(&node.signed_phi);
+    let signed_phi = node.signed_phi[k];
     let phi = signed_phi.abs();
-    let axis = [0, 1, 2].map(|k| load(&node.axis[k]));
+    let axis = [node.axis[0][k], node.axis[1][k], node.axis[2][k]];
     let cos_w = axis[0] * dir[0] + axis[1] * dir[1] + axis[2] * dir[2];
-    let cos_w = signed_phi.simd_lt(ZERO).select(cos_w.abs(), cos_w);
-    let cos_o = load(&node.cos_o);
+    let cos_w = if signed_phi < 0.0 { cos_w.abs() } else { cos_w };
+    let cos_o = node.cos_o[k];
     let (cos_x, sin_x) = minus(cos_w, sin_of(cos_w), cos_o, sin_of(cos_o));
     let (cos_p, _) = minus(cos_x, sin_x, cos_b, sin_b);
-    let slack = Lanes::splat(COS_SLACK);
-    let mut reject = cos_p.simd_le(load(&node.cos_e) - slack);
-    let mut factor = cos_p.max(slack);
+    let emitter_rejects = cos_p <= node.cos_e[k] - COS_SLACK;
+    let emitted = max(cos_p, COS_SLACK);
 
-    if n != Vec3::ZERO {
-        let cos_i = -(dir[0] * n.x + dir[1] * n.y + dir[2] * n.z);
-        let (cos_r, _) = minus(cos_i, sin_of(cos_i), cos_b, sin_b);
-        reject |= cos_r.simd_le(-slack);
-        factor *= cos_r.max(slack);
+    let cos_i = -(dir[0] * n.x + dir[1] * n.y + dir[2] * n.z);
+    let (cos_r, _) = minus(cos_i, sin_of(cos_i), cos_b, sin_b);
+    let receiver_rejects = receiver & (cos_r <= -COS_SLACK);
+    let received = if receiver { max(cos_r, COS_SLACK) } else { 1.0 };
+
+    let outside = dist_sq > radius_sq;
+    let reject = (outside & (emitter_rejects | receiver_rejects)) | (phi <= 0.0);
+    let factor = if outside { emitted * received } else { 1.0 };
+    let d_sq = max(max(dist_sq, radius_sq), f32::MIN_POSITIVE);
+    let value = phi * factor / d_sq;
+    let value = if value < f32::MAX { value } else { f32::MAX };
+    let value = max(value, f32::MIN_POSITIVE);
+    if reject {
+        0.0
+    } else {
+        value
     }
-    let reject = (reject & outside) | phi.simd_le(ZERO);
-    let factor = outside.select(factor, ONE);
-    let d_sq = dist_sq.max(radius_sq).max(Lanes::splat(f32::MIN_POSITIVE));
-    let value = (phi * factor / d_sq)
-        .min(Lanes::splat(f32::MAX))
-        .max(Lanes::splat(f32::MIN_POSITIVE));
-    reject.select(ZERO, value).to_array()
 }

@@ -726,3 +726,28 @@ fn lane_importance_matches_the_bound_written_with_angles() {
     println!("{compared} positive lane importances compared");
     assert!(compared > 1000);
 }
+
+#[test]
+fn avx2_and_portable_copies_agree_bit_for_bit() {
+    let mut rng = Rand::new(11);
+    let scene = random_scene(&mut rng, 3000);
+    let (fast, _) = LightBvh::build(&scene.bounds);
+    let portable = LightBvh {
+        avx2: false,
+        ..fast.clone()
+    };
+    println!("AVX2 copy in use: {}", fast.avx2);
+    for (p, n) in receivers(&mut rng, &scene, 600) {
+        let u = rng.f64();
+        let (a, b) = (fast.sample(p, n, u), portable.sample(p, n, u));
+        assert_eq!(
+            a.map(|(l, q)| (l, q.to_bits())),
+            b.map(|(l, q)| (l, q.to_bits()))
+        );
+        let light = rng.below(fast.len());
+        assert_eq!(
+            fast.pmf(p, n, light).to_bits(),
+            portable.pmf(p, n, light).to_bits()
+        );
+    }
+}

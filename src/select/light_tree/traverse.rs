@@ -14,6 +14,9 @@ use super::*;
 pub struct LightBvh {
     pub(super) nodes: Vec<WideNode>,
     pub(super) lights: usize,
+    /// Whether the CPU has AVX2 and FMA (`sample` and `pmf` then run a copy
+    /// compiled for them).
+    pub(super) avx2: bool,
 }
 
 impl LightBvh {
@@ -54,6 +57,7 @@ impl LightBvh {
         let tree = LightBvh {
             nodes: collapse(&nodes, &grid),
             lights: prims.len(),
+            avx2: has_avx2(),
         };
         (tree, order)
     }
@@ -72,6 +76,23 @@ impl LightBvh {
     /// tree is empty, (p, n) is not finite, a node is reached whose lanes all
     /// have importance 0, or the probability underflows to 0.
     pub fn sample(&self, p: Vec3, n: Vec3, u: f64) -> Option<(usize, f64)> {
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            // SAFETY: `avx2` is true only when the CPU reported AVX2 and FMA.
+            return unsafe { self.sample_avx2(p, n, u) };
+        }
+        self.sample_portable(p, n, u)
+    }
+
+    /// [`sample`](Self::sample) compiled for AVX2: the lanes in one register.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn sample_avx2(&self, p: Vec3, n: Vec3, u: f64) -> Option<(usize, f64)> {
+        self.sample_portable(p, n, u)
+    }
+
+    #[inline(always)]
+    fn sample_portable(&self, p: Vec3, n: Vec3, u: f64) -> Option<(usize, f64)> {
         let mut u = if u >= 0.0 {
             u.min(LARGEST_BELOW_ONE)
         } else {
@@ -98,6 +119,24 @@ impl LightBvh {
     /// towards the lane whose id range holds `light`, multiplying the same
     /// per-node probabilities. 0 for ids ≥ [`len`](Self::len).
     pub fn pmf(&self, p: Vec3, n: Vec3, light: usize) -> f64 {
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            // SAFETY: `avx2` is true only when the CPU reported AVX2 and FMA.
+            return unsafe { self.pmf_avx2(p, n, light) };
+        }
+        self.pmf_portable(p, n, light)
+    }
+
+    /// [`pmf`](Self::pmf) compiled for AVX2 (the same arithmetic: no FMA
+    /// contraction, so both give the same bits).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn pmf_avx2(&self, p: Vec3, n: Vec3, light: usize) -> f64 {
+        self.pmf_portable(p, n, light)
+    }
+
+    #[inline(always)]
+    fn pmf_portable(&self, p: Vec3, n: Vec3, light: usize) -> f64 {
         if light >= self.lights {
             return 0.0;
         }
@@ -151,18 +190,11 @@ impl LightBvh {
     /// The lanes' probabilities P_k = I_k / Σ I at wide node `index`, in f64
     /// (a lane of importance 0 gets exactly 0); `None` when every lane's
     /// importance is 0, the node does not exist, or (p, n) is not finite.
-    /// The children's first cache lines are prefetched, as the descent
-    /// continues into one of them.
     #[inline(always)]
     pub(super) fn probabilities(&self, index: usize, p: Vec3, n: Vec3) -> Option<[f64; LANES]> {
         let node = self.nodes.get(index)?;
         if !(p.is_finite() && n.is_finite()) {
             return None;
-        }
-        for &child in &node.child {
-            if child & LIGHT_LANE == 0 {
-                prefetch(&self.nodes, child as usize);
-            }
         }
         let importances = importances(node, p, n).map(f64::from);
         let total: f64 = importances.iter().sum();
@@ -192,17 +224,12 @@ fn choose_lane(probabilities: &[f64; LANES], u: f64) -> (usize, f64) {
     last
 }
 
-/// Asks the CPU to start loading the node at `index` (no effect elsewhere).
-#[inline(always)]
-fn prefetch(nodes: &[WideNode], index: usize) {
-    #[cfg(target_arch = "x86_64")]
-    if let Some(node) = nodes.get(index) {
-        // SAFETY: prefetching is a hint and never faults; the pointer is in bounds.
-        unsafe {
-            use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-            _mm_prefetch::<_MM_HINT_T0>((node as *const WideNode).cast());
-        }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = (nodes, index);
+#[cfg(target_arch = "x86_64")]
+fn has_avx2() -> bool {
+    is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma")
+}
+
+#[cfg(not(target_arch = "x86_64"))]
+fn has_avx2() -> bool {
+    false
 }
