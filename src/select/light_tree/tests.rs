@@ -228,12 +228,12 @@ fn dead_end_mass(bvh: &LightBvh, p: Vec3, n: Vec3) -> f64 {
     let mut mass = 0.0;
     let mut stack = vec![(0usize, 1.0f64)];
     while let Some((i, weight)) = stack.pop() {
-        match bvh.probabilities(i, p, n) {
+        match bvh.importances(i, p, n) {
             None => mass += weight,
-            Some(probabilities) => stack.extend(
+            Some((importances, total)) => stack.extend(
                 interior_lanes(bvh, i)
-                    .filter(|&(k, _)| probabilities[k] > 0.0)
-                    .map(|(k, child)| (child, weight * probabilities[k])),
+                    .filter(|&(k, _)| importances[k] > 0.0)
+                    .map(|(k, child)| (child, weight * importances[k] / total)),
             ),
         }
     }

@@ -65,14 +65,14 @@ impl LightBvh {
     /// Whether some light in the tree may reach the upper hemisphere of a
     /// receiver at (p, n) (some root lane has positive importance).
     pub fn can_reach(&self, p: Vec3, n: Vec3) -> bool {
-        self.probabilities(0, p, n).is_some()
+        self.importances(0, p, n).is_some()
     }
 
     /// Chooses a light (its id in leaf order) with probability proportional
     /// to importance at each level, from `u` ∈ [0, 1): at a wide node, lane k
-    /// is taken when u falls in its share [P_<k, P_<k + P_k) of [0, 1), and u
-    /// is rescaled to [0, 1) within that share. Returns the light and its
-    /// probability (the product of the chosen lanes' P_k), or `None` when the
+    /// is taken when u·Σ I falls in its part [I_<k, I_<k + I_k), and u is
+    /// rescaled to [0, 1) within that part. Returns the light and its
+    /// probability (the product of the chosen lanes' I_k / Σ I), or `None` when the
     /// tree is empty, (p, n) is not finite, a node is reached whose lanes all
     /// have importance 0, or the probability underflows to 0.
     pub fn sample(&self, p: Vec3, n: Vec3, u: f64) -> Option<(usize, f64)> {
@@ -101,11 +101,11 @@ impl LightBvh {
         let mut index = 0;
         let mut pmf = 1.0;
         loop {
-            let probabilities = self.probabilities(index, p, n)?;
-            let (lane, below) = choose_lane(&probabilities, u);
-            let probability = probabilities[lane];
-            pmf *= probability;
-            u = ((u - below) / probability).clamp(0.0, LARGEST_BELOW_ONE);
+            let (importances, total) = self.importances(index, p, n)?;
+            let target = u * total;
+            let (lane, below) = choose_lane(&importances, target);
+            pmf *= importances[lane] / total;
+            u = ((target - below) / importances[lane]).clamp(0.0, LARGEST_BELOW_ONE);
             let child = self.nodes[index].child[lane];
             if child & LIGHT_LANE != 0 {
                 return (pmf > 0.0).then_some(((child & !LIGHT_LANE) as usize, pmf));
@@ -144,14 +144,14 @@ impl LightBvh {
         let mut index = 0;
         let mut pmf = 1.0;
         loop {
-            let Some(probabilities) = self.probabilities(index, p, n) else {
+            let Some((importances, total)) = self.importances(index, p, n) else {
                 return 0.0;
             };
             let node = &self.nodes[index];
             let Some(lane) = node.lane_of(light) else {
                 return 0.0;
             };
-            pmf *= probabilities[lane];
+            pmf *= importances[lane] / total;
             if pmf == 0.0 {
                 return 0.0;
             }
@@ -187,43 +187,45 @@ impl LightBvh {
         self.nodes.capacity() * std::mem::size_of::<WideNode>()
     }
 
-    /// The lanes' probabilities P_k = I_k / Σ I at wide node `index`, in f64
-    /// (a lane of importance 0 gets exactly 0); `None` when every lane's
-    /// importance is 0, the node does not exist, or (p, n) is not finite.
+    /// The lanes' importances I_k at wide node `index` in f64, and their sum
+    /// Σ I (lane k is chosen with probability I_k / Σ I); `None` when the sum
+    /// is 0, the node does not exist, or (p, n) is not finite.
     #[inline(always)]
-    pub(super) fn probabilities(&self, index: usize, p: Vec3, n: Vec3) -> Option<[f64; LANES]> {
+    pub(super) fn importances(
+        &self,
+        index: usize,
+        p: Vec3,
+        n: Vec3,
+    ) -> Option<([f64; LANES], f64)> {
         let node = self.nodes.get(index)?;
         if !(p.is_finite() && n.is_finite()) {
             return None;
         }
         let importances = importances(node, p, n).map(f64::from);
         let total: f64 = importances.iter().sum();
-        (total > 0.0).then(|| {
-            let inv_total = total.recip();
-            importances.map(|i| i * inv_total)
-        })
+        (total > 0.0).then_some((importances, total))
     }
 }
 
-/// The lane whose share of [0, 1) holds `u`, and the sum of the shares below
-/// it; a lane of probability 0 is never returned (rounding that leaves u past
-/// the last share gives the last lane of positive probability).
+/// The lane whose part of [0, Σ I) holds `target` (lane k's part is
+/// [I_<k, I_<k + I_k)), and the sum I_<k of the parts below it. A lane of
+/// importance 0 is never returned: rounding that leaves `target` past the
+/// last part gives the last lane of positive importance.
 #[inline(always)]
-fn choose_lane(probabilities: &[f64; LANES], u: f64) -> (usize, f64) {
+fn choose_lane(importances: &[f64; LANES], target: f64) -> (usize, f64) {
     let mut below = 0.0;
     let mut last = (0, 0.0);
-    for (lane, &probability) in probabilities.iter().enumerate() {
-        if probability > 0.0 {
-            if u < below + probability {
+    for (lane, &importance) in importances.iter().enumerate() {
+        if importance > 0.0 {
+            if target < below + importance {
                 return (lane, below);
             }
             last = (lane, below);
         }
-        below += probability;
+        below += importance;
     }
     last
 }
-
 #[cfg(target_arch = "x86_64")]
 fn has_avx2() -> bool {
     is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma")
