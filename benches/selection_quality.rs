@@ -1,0 +1,133 @@
+//! How close each selector's choice is to the oracle's, without Monte Carlo noise: at shading
+//! points where camera rays hit the scene, the chi-square divergence of the selector's pmf p_l
+//! from the oracle's q_l (each light's exact unshadowed contribution, normalised),
+//!     χ² = Σ_l q_l² / p_l − 1,
+//! which is the relative variance of an estimate that picks one light with p_l and then knows
+//! that light's unshadowed contribution exactly (0 for the oracle itself). Pixel error scales
+//! with W²·χ², W the point's total unshadowed contribution, and relative pixel error with χ²
+//! itself, so the table gives the W²-weighted mean, the plain mean (which a few bad points
+//! dominate, as they dominate relMSE), the median and the largest χ², and counts points where a
+//! contributing light has p_l = 0 (bias).
+//!
+//! Scenes: `scenes/town.glb` and the generated 50k city (seed 1, as `manylights gen city`).
+//! Run: `cargo bench --bench selection_quality` (about a minute; prints a table, times nothing).
+
+use std::path::Path;
+
+use manylights::accel::Accel;
+use manylights::lights::Lights;
+use manylights::scene::generate::city;
+use manylights::scene::{load_gltf, load_gltf_bytes, Scene};
+use manylights::select::{oracle, LightSelector, SelectorKind, ShadingContext};
+
+/// Camera rays per image side (columns; rows follow the 4:3 frame).
+const GRID: u32 = 40;
+
+/// Shading points where camera rays through a GRID × 3/4 GRID grid hit the scene.
+fn shading_points(scene: &Scene, accel: &Accel) -> Vec<ShadingContext> {
+    let camera = scene.camera.as_ref().expect("the scene has a camera");
+    let (width, height) = (GRID, GRID * 3 / 4);
+    let mut points = Vec::new();
+    for j in 0..height {
+        for i in 0..width {
+            let (origin, dir) = camera.ray(i as f32 + 0.5, j as f32 + 0.5, width, height);
+            if let Some(hit) = accel.closest_hit(origin, dir, f32::INFINITY) {
+                let n = scene.triangles[hit.triangle as usize].geometric_normal();
+                let n = if n.dot(dir) > 0.0 { -n } else { n };
+                points.push(ShadingContext {
+                    p: origin + dir * hit.t,
+                    n,
+                });
+            }
+        }
+    }
+    points
+}
+
+/// χ² over the shading points, and the points where a contributing light has p_l = 0.
+struct Divergence {
+    weighted_mean: f64,
+    mean: f64,
+    median: f64,
+    max: f64,
+    missed: usize,
+}
+
+fn divergence(scene: &Scene, points: &[ShadingContext], kind: SelectorKind) -> Divergence {
+    let mut lights = Lights::from_scene(scene);
+    let selector = LightSelector::build(kind, &mut lights).expect("the scene has lights");
+    let (mut weighted, mut weight_sum, mut missed) = (0.0, 0.0, 0);
+    let mut all = Vec::with_capacity(points.len());
+    for ctx in points {
+        let weights: Vec<f64> = lights
+            .lights
+            .iter()
+            .map(|l| oracle::weight(l, ctx))
+            .collect();
+        let total: f64 = weights.iter().sum();
+        if total <= 0.0 {
+            continue;
+        }
+        let mut chi2 = -1.0;
+        let mut lost = false;
+        for (light, &w) in weights.iter().enumerate().filter(|(_, &w)| w > 0.0) {
+            let p = selector.pmf(&lights, ctx, light);
+            let q = w / total;
+            if p > 0.0 {
+                chi2 += q * q / p;
+            } else {
+                lost = true;
+            }
+        }
+        missed += usize::from(lost);
+        weighted += total * total * chi2;
+        weight_sum += total * total;
+        all.push(chi2);
+    }
+    all.sort_by(f64::total_cmp);
+    Divergence {
+        weighted_mean: weighted / weight_sum,
+        mean: all.iter().sum::<f64>() / all.len() as f64,
+        median: all.get(all.len() / 2).copied().unwrap_or(f64::NAN),
+        max: all.last().copied().unwrap_or(f64::NAN),
+        missed,
+    }
+}
+
+fn main() {
+    let town_path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/town.glb");
+    let town = load_gltf(&town_path, &Default::default()).expect("scenes/town.glb loads");
+    let city_bytes = city(50_000, 1).to_glb_bytes();
+    let city = load_gltf_bytes(
+        &city_bytes,
+        Path::new("city.glb"),
+        Path::new("."),
+        &Default::default(),
+    )
+    .expect("the generated city loads");
+    println!(
+        "scene     selector  points  W²-weighted χ²     mean χ²  median χ²      max χ²  \
+         points with a contributing light at p = 0"
+    );
+    for (name, scene) in [("town", &town), ("city50k", &city)] {
+        let accel = Accel::build(scene);
+        let points = shading_points(scene, &accel);
+        for kind in [
+            SelectorKind::Uniform,
+            SelectorKind::Power,
+            SelectorKind::Bvh,
+        ] {
+            let d = divergence(scene, &points, kind);
+            println!(
+                "{name:<9} {:<9} {:>6}  {:>14.3}  {:>10.3}  {:>9.3}  {:>10.1}  {}",
+                format!("{kind:?}").to_lowercase(),
+                points.len(),
+                d.weighted_mean,
+                d.mean,
+                d.median,
+                d.max,
+                d.missed
+            );
+        }
+    }
+}
