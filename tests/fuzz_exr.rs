@@ -336,3 +336,13 @@ fn fuzz_exr_for_a_while() {
     assert!(report.panics.is_empty(), "panics: {:?}", report.panics);
     assert!(report.slow.is_empty(), "slow inputs at {:?}", report.slow);
 }
+
+#[test]
+#[ignore = "writes the seed corpus of the coverage-guided fuzzer to FUZZ_CORPUS_DIR"]
+fn write_seed_corpus() {
+    let dir = PathBuf::from(std::env::var("FUZZ_CORPUS_DIR").expect("FUZZ_CORPUS_DIR is set"));
+    std::fs::create_dir_all(&dir).unwrap();
+    for (i, input) in corpus().iter().enumerate() {
+        std::fs::write(dir.join(format!("seed-{i}.exr")), input).unwrap();
+    }
+}

@@ -754,3 +754,13 @@ fn fuzz_loader_for_a_while() {
     print(&report);
     assert_clean(&report);
 }
+
+#[test]
+#[ignore = "writes the seed corpus of the coverage-guided fuzzer to FUZZ_CORPUS_DIR"]
+fn write_seed_corpus() {
+    let dir = PathBuf::from(std::env::var("FUZZ_CORPUS_DIR").expect("FUZZ_CORPUS_DIR is set"));
+    std::fs::create_dir_all(&dir).unwrap();
+    for (i, input) in corpus().iter().enumerate() {
+        std::fs::write(dir.join(format!("seed-{i}")), input).unwrap();
+    }
+}
