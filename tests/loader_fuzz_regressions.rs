@@ -4,7 +4,9 @@
 use std::path::Path;
 
 use base64::Engine;
-use manylights::scene::{load_gltf_bytes, load_gltf_bytes_allowing, CameraChoice, LoadError};
+use manylights::scene::{
+    load_gltf_bytes, load_gltf_bytes_allowing, CameraChoice, LoadError, LoadPolicy,
+};
 use serde_json::{json, Value};
 
 /// One triangle: three f32 VEC3 positions (36 bytes) in buffer 0, view 0, accessor 0.
@@ -234,7 +236,16 @@ fn buffer_uri_that_is_not_a_regular_file_is_an_error() {
         let bytes = serde_json::to_vec(&doc).unwrap();
         let path = Path::new("regression.gltf");
         let choice = &CameraChoice::First;
-        let loaded = load_gltf_bytes_allowing(&bytes, path, Path::new("."), choice, allowed);
+        let loaded = load_gltf_bytes_allowing(
+            &bytes,
+            path,
+            Path::new("."),
+            choice,
+            &LoadPolicy {
+                allowed: allowed.to_vec(),
+                memory: None,
+            },
+        );
         assert_error(loaded, "not a regular file");
         assert!(start.elapsed().as_secs() < 5);
     }

@@ -6,7 +6,9 @@ use clap::Args;
 
 use crate::lights::power_stats::PowerStats;
 use crate::lights::{luminance, punctual, Light, Lights};
-use crate::scene::{load_gltf_allowing, CameraChoice, PunctualKind, PunctualUnits, Scene};
+use crate::scene::{
+    load_gltf_allowing, CameraChoice, LoadPolicy, PunctualKind, PunctualUnits, Scene,
+};
 
 #[derive(Args, Debug)]
 pub struct InfoArgs {
@@ -26,8 +28,12 @@ pub struct InfoArgs {
 
 pub fn run(args: &InfoArgs) -> anyhow::Result<()> {
     let camera = args.camera.clone().unwrap_or_default();
-    let scene = load_gltf_allowing(&args.scene, &camera, &args.allow_external_files)?
-        .with_punctual_units(args.punctual_units);
+    let policy = LoadPolicy {
+        allowed: args.allow_external_files.clone(),
+        memory: None,
+    };
+    let scene =
+        load_gltf_allowing(&args.scene, &camera, &policy)?.with_punctual_units(args.punctual_units);
     let lights = Lights::from_scene(&scene);
     let two_sided = lights.triangles().filter(|l| l.two_sided).count();
     let (lo, hi) = scene.bounds();

@@ -13,7 +13,8 @@ use crate::integrator::Strategy;
 use crate::lights::{EnvironmentError, EnvironmentMap};
 use crate::measure::EstimatorChoice;
 use crate::sampling::sampler::SamplerKind;
-use crate::scene::{CameraChoice, PunctualUnits};
+use crate::scene::memory::{available_memory, parse_size, MemoryBudget};
+use crate::scene::{CameraChoice, LoadPolicy, PunctualUnits};
 use crate::select::SelectorKind;
 
 #[derive(Args, Debug, Clone)]
@@ -81,6 +82,11 @@ pub struct RenderOptionsArgs {
     /// it only files inside the scene's own folder are read (repeatable).
     #[arg(long, value_name = "DIR", value_parser = existing_folder)]
     pub allow_external_files: Vec<PathBuf>,
+    /// Refuse, before reading its buffers, a scene whose estimated memory (geometry and BVH,
+    /// lights, film, from the sizes the file declares) exceeds SIZE, e.g. 512M, 8G, 1.5GiB
+    /// [default: the memory the system has available]
+    #[arg(long, value_name = "SIZE", value_parser = memory_size)]
+    pub max_memory: Option<u64>,
 }
 
 /// The defaults of a command that renders one configuration.
@@ -157,10 +163,27 @@ impl RenderOptionsArgs {
             self.camera.as_ref(),
             self.width,
             self.height,
-            &self.allow_external_files,
+            &self.load_policy(),
         )?
         .with_punctual_units(self.punctual_units)
         .with_environment(self.environment()?))
+    }
+
+    /// External folders and the memory budget: `--max-memory`, else the memory available
+    /// (none when it cannot be read); the film is counted at width × height (width² when the
+    /// height comes from the camera).
+    pub fn load_policy(&self) -> LoadPolicy {
+        let film_pixels = u64::from(self.width) * u64::from(self.height.unwrap_or(self.width));
+        LoadPolicy {
+            allowed: self.allow_external_files.clone(),
+            memory: self
+                .max_memory
+                .or_else(available_memory)
+                .map(|max_bytes| MemoryBudget {
+                    max_bytes,
+                    film_pixels,
+                }),
+        }
     }
 
     /// The `--env` map, scaled and rotated (None without `--env`).
@@ -236,6 +259,11 @@ fn positive_finite(s: &str) -> Result<f32, String> {
 
 /// Parses an existing folder into its canonical path (clap value parser for
 /// `--allow-external-files`, whose paths are compared with canonical file paths).
+/// A `--max-memory` size (see [`parse_size`]).
+fn memory_size(s: &str) -> Result<u64, String> {
+    parse_size(s)
+}
+
 pub fn existing_folder(s: &str) -> Result<PathBuf, String> {
     let path = std::path::Path::new(s)
         .canonicalize()

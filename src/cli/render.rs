@@ -127,7 +127,7 @@ fn render_scene(
     let scene = load_gltf_allowing(
         &o.scene,
         &o.camera.clone().unwrap_or_default(),
-        &o.allow_external_files,
+        &o.load_policy(),
     )?
     .with_punctual_units(o.punctual_units)
     .with_environment(o.environment()?);

@@ -24,8 +24,8 @@ use crate::integrator::Strategy;
 use crate::lights::EnvironmentMap;
 use crate::sampling::sampler::SamplerKind;
 use crate::scene::{
-    load_gltf_bytes_allowing, read_scene_file, scene_folder, Camera, CameraChoice, PunctualUnits,
-    Scene,
+    load_gltf_bytes_allowing, read_scene_file, scene_folder, Camera, CameraChoice, LoadPolicy,
+    PunctualUnits, Scene,
 };
 use crate::select::SelectorKind;
 
@@ -71,22 +71,21 @@ impl SceneSetup {
         width: u32,
         height: Option<u32>,
     ) -> anyhow::Result<SceneSetup> {
-        Self::load_allowing(path, camera, width, height, &[])
+        Self::load_allowing(path, camera, width, height, &LoadPolicy::default())
     }
 
-    /// [`SceneSetup::load`], also reading external files from the `allowed` folders (canonical
-    /// paths; `--allow-external-files`).
+    /// [`SceneSetup::load`] under `policy` (external folders, memory budget).
     pub fn load_allowing(
         path: &Path,
         camera: Option<&CameraChoice>,
         width: u32,
         height: Option<u32>,
-        allowed: &[PathBuf],
+        policy: &LoadPolicy,
     ) -> anyhow::Result<SceneSetup> {
         // One read: the bytes the loader accepts are the bytes hashed.
         let bytes = read_scene_file(path)?;
         let choice = camera.cloned().unwrap_or_default();
-        let scene = load_gltf_bytes_allowing(&bytes, path, scene_folder(path), &choice, allowed)?;
+        let scene = load_gltf_bytes_allowing(&bytes, path, scene_folder(path), &choice, policy)?;
         let cam = camera_or_framing(&scene, path, width, height);
         let (width, height) = cam.resolution(width, height);
         Ok(SceneSetup {

@@ -34,6 +34,7 @@ use super::gltf_camera::choose_camera;
 pub use super::gltf_camera::CameraChoice;
 use super::gltf_extensions::{check_required_extensions, convert_light};
 use super::gltf_files::{read_uri, FileAccess};
+use super::memory::{declared_triangles, human, MemoryBudget, MemoryEstimate};
 use super::texture_decode::decode_image;
 use super::{
     geometric_normal, LoadStats, Material, PunctualUnits, Scene, Texture, Triangle, UvTransform,
@@ -67,20 +68,29 @@ const MAX_NODE_DEPTH: usize = 256;
 /// counts it declares, before any buffer is read.
 pub const MAX_TRIANGLES: u64 = 1 << 25;
 
-/// Loads the default scene of a glTF or GLB file, reading external files only from its folder.
-pub fn load_gltf(path: &Path, camera: &CameraChoice) -> Result<Scene, LoadError> {
-    load_gltf_allowing(path, camera, &[])
+/// What a load may read and use besides the scene's own folder.
+#[derive(Clone, Debug, Default)]
+pub struct LoadPolicy {
+    /// Further folders (canonical paths) whose files external URIs may name
+    /// (`--allow-external-files`).
+    pub allowed: Vec<PathBuf>,
+    /// Refuse, before any buffer is read, a scene whose [`MemoryEstimate`] exceeds the budget.
+    pub memory: Option<MemoryBudget>,
 }
 
-/// [`load_gltf`], also admitting external files inside the `allowed` folders (canonical paths;
-/// `--allow-external-files`).
+/// Loads the default scene of a glTF or GLB file, reading external files only from its folder.
+pub fn load_gltf(path: &Path, camera: &CameraChoice) -> Result<Scene, LoadError> {
+    load_gltf_allowing(path, camera, &LoadPolicy::default())
+}
+
+/// [`load_gltf`] under `policy`: external files also from its folders, and its memory budget.
 pub fn load_gltf_allowing(
     path: &Path,
     camera: &CameraChoice,
-    allowed: &[PathBuf],
+    policy: &LoadPolicy,
 ) -> Result<Scene, LoadError> {
     let bytes = read_scene_file(path)?;
-    load_gltf_bytes_allowing(&bytes, path, scene_folder(path), camera, allowed)
+    load_gltf_bytes_allowing(&bytes, path, scene_folder(path), camera, policy)
 }
 
 /// The folder external buffer URIs of the scene file `path` resolve against.
@@ -133,21 +143,26 @@ pub fn load_gltf_bytes(
     base_dir: &Path,
     camera: &CameraChoice,
 ) -> Result<Scene, LoadError> {
-    load_gltf_bytes_allowing(bytes, path_for_messages, base_dir, camera, &[])
+    load_gltf_bytes_allowing(
+        bytes,
+        path_for_messages,
+        base_dir,
+        camera,
+        &LoadPolicy::default(),
+    )
 }
 
-/// [`load_gltf_bytes`], also admitting external files inside the `allowed` folders (canonical
-/// paths).
+/// [`load_gltf_bytes`] under `policy` (see [`LoadPolicy`]).
 pub fn load_gltf_bytes_allowing(
     bytes: &[u8],
     path_for_messages: &Path,
     base_dir: &Path,
     camera: &CameraChoice,
-    allowed: &[PathBuf],
+    policy: &LoadPolicy,
 ) -> Result<Scene, LoadError> {
     let files = FileAccess {
         scene_folder: base_dir,
-        allowed,
+        allowed: &policy.allowed,
     };
     let path = path_for_messages;
     let format = |message: String| LoadError::Format {
@@ -172,7 +187,26 @@ pub fn load_gltf_bytes_allowing(
         .default_scene()
         .or_else(|| document.scenes().next())
         .ok_or_else(|| invalid("scenes".into(), "the file has no scene".into()))?;
-    let declared = declared_triangles(&scene);
+    let (declared, emitters) = declared_triangles(&scene);
+    if let Some(budget) = &policy.memory {
+        let estimate = MemoryEstimate {
+            file_bytes: bytes.len() as u64,
+            triangles: declared,
+            emitters,
+            pixels: budget.film_pixels,
+        };
+        if estimate.total() > budget.max_bytes {
+            return Err(invalid(
+                format!("scene {}", scene.index()),
+                format!(
+                    "rendering it needs {}, more than the {} allowed (--max-memory; by default \
+                     the memory the system has available)",
+                    estimate.describe(),
+                    human(budget.max_bytes)
+                ),
+            ));
+        }
+    }
     if declared > MAX_TRIANGLES {
         return Err(invalid(
             format!("scene {}", scene.index()),
@@ -271,33 +305,6 @@ pub fn load_gltf_bytes_allowing(
     Ok(scene)
 }
 
-/// Triangles the scene's node instances declare: Σ over nodes of their mesh's triangle, strip and
-/// fan primitives' triangles from their index (or vertex) counts, from the JSON alone. A node reached twice is counted
-/// once (the traversal refuses it later).
-fn declared_triangles(scene: &gltf::Scene) -> u64 {
-    let mut seen = std::collections::HashSet::new();
-    let mut stack: Vec<gltf::Node> = scene.nodes().collect();
-    let mut total = 0u64;
-    while let Some(node) = stack.pop() {
-        if !seen.insert(node.index()) {
-            continue;
-        }
-        if let Some(mesh) = node.mesh() {
-            for prim in mesh.primitives() {
-                let count = match prim.indices() {
-                    Some(acc) => acc.count(),
-                    None => prim
-                        .get(&gltf::Semantic::Positions)
-                        .map_or(0, |a| a.count()),
-                };
-                total = total.saturating_add(triangle_count(prim.mode(), count) as u64);
-            }
-        }
-        stack.extend(node.children());
-    }
-    total
-}
-
 /// Whether primitives of this mode cover area (triangles, strips and fans); points and lines
 /// have none to shade or emit from.
 fn has_area(mode: Mode) -> bool {
@@ -309,7 +316,7 @@ fn has_area(mode: Mode) -> bool {
 
 /// Triangles a primitive of `mode` with `count` indices (or vertices) makes: count/3 for
 /// TRIANGLES, count − 2 for strips and fans, 0 for modes without area.
-fn triangle_count(mode: Mode, count: usize) -> usize {
+pub(super) fn triangle_count(mode: Mode, count: usize) -> usize {
     match mode {
         Mode::Triangles => count / 3,
         Mode::TriangleStrip | Mode::TriangleFan => count.saturating_sub(2),

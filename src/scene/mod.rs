@@ -12,13 +12,14 @@ mod gltf_extensions;
 mod gltf_files;
 mod gltf_load;
 pub mod gltf_write;
+pub mod memory;
 pub mod texture;
 pub mod texture_decode;
 
 pub use camera::{Camera, Projection};
 pub use gltf_load::{
     load_gltf, load_gltf_allowing, load_gltf_bytes, load_gltf_bytes_allowing, read_scene_file,
-    scene_folder, CameraChoice, LoadError, MAX_TRIANGLES,
+    scene_folder, CameraChoice, LoadError, LoadPolicy, MAX_TRIANGLES,
 };
 pub use texture::{Texture, UvTransform, Wrap};
 
