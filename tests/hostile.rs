@@ -909,3 +909,29 @@ fn scenes_over_the_memory_budget_are_refused_before_their_buffers_are_read() {
     assert_eq!(run.code, Some(0), "{}", run.stderr);
     assert!(out.join("r.exr").is_file());
 }
+
+/// Output into a pipe whose reader has gone (`manylights info SCENE | head -1`) ends the program
+/// by SIGPIPE, as it ends `cat`, without a panic message.
+#[cfg(unix)]
+#[test]
+fn a_closed_output_pipe_ends_the_program_quietly() {
+    use std::os::unix::process::ExitStatusExt;
+    use std::process::Stdio;
+    let town = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/town.glb");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_manylights"))
+        .args(["info", &s(&town)])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(
+        out.status.signal(),
+        Some(13),
+        "status {:?}: {stderr}",
+        out.status
+    );
+    assert!(!stderr.contains("panicked"), "{stderr}");
+}
