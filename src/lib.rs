@@ -8,6 +8,7 @@
 
 pub mod accel;
 pub mod cli;
+pub mod color;
 pub mod film;
 pub mod image;
 pub mod integrator;

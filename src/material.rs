@@ -10,7 +10,7 @@
 use glam::Vec3;
 use std::f32::consts::{FRAC_1_PI, PI};
 
-use crate::lights::luminance;
+use crate::color::luminance;
 use crate::sampling::warp::{self, Frame};
 use crate::scene::Material;
 

@@ -949,7 +949,7 @@ fn fireflies_are_counted_where_a_rare_light_dominates_and_never_in_a_constant_sc
     assert_eq!(stats.fireflies, 0);
     assert_eq!(
         stats.max_sample_luminance,
-        manylights::lights::luminance(le) as f64
+        manylights::color::luminance(le) as f64
     );
 }
 

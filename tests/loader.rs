@@ -108,7 +108,7 @@ fn trs_matrix_and_hierarchy_compose_parent_times_child() {
     assert!(m.double_sided);
     let lights = Lights::from_scene(&scene);
     let expected =
-        std::f64::consts::PI * 2.0 * manylights::lights::luminance(m.emission) as f64 * 2.0;
+        std::f64::consts::PI * 2.0 * manylights::color::luminance(m.emission) as f64 * 2.0;
     assert!((lights.total_power() - expected).abs() < 1e-9 * expected);
 }
 

@@ -12,8 +12,9 @@ use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 
 use glam::Vec3;
+use manylights::color::luminance;
 use manylights::integrator::{render, PreparedScene, RenderOptions, Strategy};
-use manylights::lights::{luminance, Light, Lights};
+use manylights::lights::{Light, Lights};
 use manylights::sampling::sampler::SamplerKind;
 use manylights::scene::{load_gltf, CameraChoice, PunctualKind, PunctualUnits, Scene};
 use manylights::select::SelectorKind;

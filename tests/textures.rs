@@ -14,8 +14,9 @@ use std::path::{Path, PathBuf};
 
 use base64::Engine;
 use glam::{DVec3, Vec2};
+use manylights::color::luminance;
 use manylights::integrator::{render, PreparedScene, RenderOptions, Strategy};
-use manylights::lights::{luminance, Light, Lights};
+use manylights::lights::{Light, Lights};
 use manylights::sampling::sampler::SamplerKind;
 use manylights::scene::{load_gltf, CameraChoice, LoadError, Scene};
 use manylights::select::SelectorKind;

@@ -4,8 +4,9 @@ use std::path::PathBuf;
 
 use clap::Args;
 
+use crate::color::luminance;
 use crate::lights::power_stats::PowerStats;
-use crate::lights::{luminance, punctual, Light, Lights};
+use crate::lights::{punctual, Light, Lights};
 use crate::scene::{
     load_gltf_allowing, CameraChoice, LoadPolicy, PunctualKind, PunctualUnits, Scene,
 };

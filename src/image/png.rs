@@ -5,25 +5,7 @@ use std::path::Path;
 use anyhow::Context;
 
 use super::{atomic::write_atomically, check_image, RgbImage};
-
-/// Maps a linear value to an 8-bit sRGB code:
-/// `x = clamp(linear, 0, 1)` (NaN → 0), then the sRGB OETF
-/// `12.92·x` for `x ≤ 0.0031308`, else `1.055·x^(1/2.4) − 0.055`,
-/// then `round(255·v)`.
-fn srgb8(linear: f32) -> u8 {
-    let x = if linear.is_nan() {
-        0.0
-    } else {
-        f64::from(linear.clamp(0.0, 1.0))
-    };
-    let v = if x <= 0.003_130_8 {
-        12.92 * x
-    } else {
-        1.055 * x.powf(1.0 / 2.4) - 0.055
-    };
-    // v ∈ [0, 1], so the rounded value fits in u8.
-    (v * 255.0).round() as u8
-}
+use crate::color::linear_to_srgb8;
 
 /// Writes an 8-bit sRGB PNG preview of a linear image: each channel is
 /// multiplied by `2^exposure`, clamped to [0, 1] (NaN → 0; no other tone
@@ -39,7 +21,7 @@ pub fn write_png_preview(path: &Path, image: &RgbImage, exposure: f32) -> anyhow
     let bytes: Vec<u8> = image
         .pixels
         .iter()
-        .flat_map(|pixel| pixel.map(|c| srgb8(c * scale)))
+        .flat_map(|pixel| pixel.map(|c| linear_to_srgb8(c * scale)))
         .collect();
     write_rgb8(path, width, height, &bytes)
 }
@@ -62,7 +44,7 @@ mod tests {
     use super::*;
     use crate::image::test_util::*;
 
-    /// The sRGB OETF in f64, written out independently of `srgb8`.
+    /// The sRGB OETF in f64, written out independently of `linear_to_srgb8`.
     fn expected_code(linear: f64) -> u8 {
         let x = linear.clamp(0.0, 1.0);
         let v = if x <= 0.0031308 {

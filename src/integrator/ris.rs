@@ -37,7 +37,8 @@ use glam::Vec3;
 
 use super::{Estimator, ShadingPoint};
 use crate::accel::offset_ray_origin;
-use crate::lights::{luminance, Light, Technique};
+use crate::color::luminance;
+use crate::lights::{Light, Technique};
 use crate::sampling::rng::mix64;
 use crate::sampling::sampler::CameraSample;
 

@@ -6,8 +6,8 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::estimator::{Estimator, SampleCounts};
+use crate::color::luminance;
 use crate::film::{classify, Film, PixelStats, SampleClass};
-use crate::lights::luminance;
 use crate::sampling::sampler::{Sampler, SamplerKind};
 use crate::scene::Camera;
 

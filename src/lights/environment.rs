@@ -20,10 +20,11 @@ use std::sync::Arc;
 
 use glam::{DVec3, Vec3};
 
-use super::luminance;
 use super::sky_irradiance::IrradianceTable;
+use crate::color::luminance;
 use crate::image::{read_exr_rgb, RgbImage};
 use crate::sampling::distribution::Distribution2D;
+use crate::sampling::warp::equirectangular_direction;
 
 /// An environment map that cannot be used, naming its file.
 #[derive(Debug, thiserror::Error)]
@@ -189,7 +190,7 @@ impl EnvironmentMap {
     /// World direction of map coordinates (u, v) ∈ [0,1)², and sinθ.
     #[inline]
     fn direction(&self, u: f64, v: f64) -> (Vec3, f64) {
-        let DVec3 { x, y, z } = map_direction(u, v);
+        let DVec3 { x, y, z } = equirectangular_direction(u, v);
         let (sin, cos) = (self.rotation.0 as f64, self.rotation.1 as f64);
         let w = DVec3::new(x * cos + z * sin, y, -x * sin + z * cos);
         (w.as_vec3(), (x * x + z * z).sqrt())
@@ -227,15 +228,6 @@ impl EnvironmentMap {
         }
         (self.distribution.pdf(column, row) / (2.0 * PI * PI * sin_theta)) as f32
     }
-}
-
-/// The map's own direction at (u, v): θ = π·v from +Y, φ = 2π·u,
-/// d = (−sinθ·sinφ, cosθ, sinθ·cosφ).
-#[inline]
-pub fn map_direction(u: f64, v: f64) -> DVec3 {
-    let (sin_phi, cos_phi) = (2.0 * PI * u).sin_cos();
-    let (sin_theta, cos_theta) = (PI * v).sin_cos();
-    DVec3::new(-sin_theta * sin_phi, cos_theta, sin_theta * cos_phi)
 }
 
 /// Solid angle of a texel of row j: (2π/W)·(cos θ_j − cos θ_{j+1}), θ_j = π·j/H.

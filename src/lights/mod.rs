@@ -19,12 +19,6 @@ pub use triangle::{Technique, TriangleLight, TriangleSample};
 
 use crate::scene::Scene;
 
-/// Rec.709 luminance of linear RGB.
-#[inline]
-pub fn luminance(c: Vec3) -> f32 {
-    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
-}
-
 /// Whether a surface with unit front normal `n` emits toward direction `w` (pointing away from
 /// the surface): always when two-sided, else only from the counter-clockwise front face.
 #[inline]

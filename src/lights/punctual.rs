@@ -9,7 +9,7 @@
 
 use glam::Vec3;
 
-use super::luminance;
+use crate::color::luminance;
 use crate::scene::{PunctualKind, PunctualLight, PunctualUnits};
 
 /// What a delta light delivers to a point: direction toward the light, distance (infinite for

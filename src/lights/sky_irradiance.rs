@@ -11,7 +11,7 @@ use std::f64::consts::PI;
 
 use glam::DVec3;
 
-use super::environment::map_direction;
+use crate::sampling::warp::equirectangular_direction;
 
 /// Normals per row and per column of the table.
 const GRID_WIDTH: usize = 32;
@@ -58,7 +58,7 @@ impl IrradianceTable {
                 let (i, j) = (k % cw, k / cw);
                 let u = (i as f64 + 0.5) / cw as f64;
                 let v = (j as f64 + 0.5) / ch as f64;
-                (map_direction(u, v), f)
+                (equirectangular_direction(u, v), f)
             })
             .collect();
         cells.sort_by(|a, b| b.1.total_cmp(&a.1));
@@ -67,7 +67,7 @@ impl IrradianceTable {
             .map(|k| {
                 let u = ((k % GRID_WIDTH) as f64 + 0.5) / GRID_WIDTH as f64;
                 let v = ((k / GRID_WIDTH) as f64 + 0.5) / GRID_HEIGHT as f64;
-                let n = map_direction(u, v);
+                let n = equirectangular_direction(u, v);
                 cells.iter().map(|(w, f)| f * n.dot(*w).max(0.0)).sum()
             })
             .collect();
@@ -115,7 +115,7 @@ mod tests {
             );
             let omega = 2.0 * PI / (w * q) as f64 * (t0.cos() - t1.cos());
             for i in 0..w * q {
-                let d = map_direction(
+                let d = equirectangular_direction(
                     (i as f64 + 0.5) / (w * q) as f64,
                     (j as f64 + 0.5) / (h * q) as f64,
                 );

@@ -2,8 +2,9 @@
 
 use glam::Vec3;
 
+use super::emits_toward;
 use super::spherical_triangle::SphericalTriangle;
-use super::{emits_toward, luminance};
+use crate::color::luminance;
 use crate::sampling::warp;
 
 /// Solid-angle sampling is used above this Ω (sr); below it, area sampling, whose pdf is better

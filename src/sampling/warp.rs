@@ -1,6 +1,6 @@
 //! Warps from [0,1)² to triangles and hemispheres, each with the PDF of what it produces.
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use std::f32::consts::{FRAC_1_PI, PI};
 
 /// Barycentric weights (b1, b2) of vertices 1 and 2, uniform over a triangle (density 1/A in
@@ -76,6 +76,17 @@ impl Frame {
     pub fn to_world(&self, v: Vec3) -> Vec3 {
         self.t * v.x + self.b * v.y + self.n * v.z
     }
+}
+
+/// The equirectangular (latitude-longitude) convention of environment maps: texture
+/// coordinates (u, v) ∈ [0, 1]² to a unit direction, θ = π·v from +Y, φ = 2π·u,
+/// d = (−sinθ·sinφ, cosθ, sinθ·cosφ): row 0 at the zenith, the image centre toward −Z.
+#[inline]
+pub fn equirectangular_direction(u: f64, v: f64) -> DVec3 {
+    use std::f64::consts::PI;
+    let (sin_phi, cos_phi) = (2.0 * PI * u).sin_cos();
+    let (sin_theta, cos_theta) = (PI * v).sin_cos();
+    DVec3::new(-sin_theta * sin_phi, cos_theta, sin_theta * cos_phi)
 }
 
 #[cfg(test)]

@@ -10,7 +10,7 @@ use glam::Vec3;
 
 use super::gltf_write::{look_at_rotation, GltfBuilder, Material, NodeTransform};
 use crate::image::RgbImage;
-use crate::lights::environment::map_direction;
+use crate::sampling::warp::equirectangular_direction;
 
 /// Unit direction toward the sun: 35° above the horizon, to the right of −Z (toward +X).
 pub fn sun_direction() -> Vec3 {
@@ -57,7 +57,7 @@ pub fn sun_and_sky(width: usize, height: usize) -> RgbImage {
                 for b in 0..SUB {
                     let u = (i as f64 + (a as f64 + 0.5) / SUB as f64) / width as f64;
                     let v = (j as f64 + (b as f64 + 0.5) / SUB as f64) / height as f64;
-                    let w = map_direction(u, v).as_vec3();
+                    let w = equirectangular_direction(u, v).as_vec3();
                     sum += if w.dot(sun) >= cos_sun {
                         Vec3::from_array(SUN_RADIANCE)
                     } else {
@@ -208,9 +208,9 @@ mod tests {
             for i in 0..w {
                 let u = (i as f64 + 0.5) / w as f64;
                 let v = (j as f64 + 0.5) / h as f64;
-                let d = map_direction(u, v).as_vec3();
+                let d = equirectangular_direction(u, v).as_vec3();
                 let cos = d.dot(n).max(0.0) as f64;
-                let l = crate::lights::luminance(Vec3::from_array(image.pixels[j * w + i])) as f64;
+                let l = crate::color::luminance(Vec3::from_array(image.pixels[j * w + i])) as f64;
                 if d.dot(n) > 0.99 {
                     sun += l * omega * cos;
                 } else {

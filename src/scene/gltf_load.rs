@@ -34,7 +34,7 @@ use super::gltf_camera::choose_camera;
 pub use super::gltf_camera::CameraChoice;
 use super::gltf_extensions::{check_required_extensions, convert_light};
 use super::gltf_files::{read_uri, FileAccess};
-use super::memory::{declared_triangles, human, MemoryBudget, MemoryEstimate};
+use super::memory::{declared_triangles, human, triangle_count, MemoryBudget, MemoryEstimate};
 use super::texture_decode::decode_image;
 use super::{
     geometric_normal, LoadStats, Material, PunctualUnits, Scene, Texture, Triangle, UvTransform,
@@ -312,16 +312,6 @@ fn has_area(mode: Mode) -> bool {
         mode,
         Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
     )
-}
-
-/// Triangles a primitive of `mode` with `count` indices (or vertices) makes: count/3 for
-/// TRIANGLES, count − 2 for strips and fans, 0 for modes without area.
-pub(super) fn triangle_count(mode: Mode, count: usize) -> usize {
-    match mode {
-        Mode::Triangles => count / 3,
-        Mode::TriangleStrip | Mode::TriangleFan => count.saturating_sub(2),
-        _ => 0,
-    }
 }
 
 /// The vertex triples of a primitive as a TRIANGLES list, with glTF 2.0's winding (§3.7.2.1):

@@ -13,7 +13,7 @@
 
 use std::collections::HashSet;
 
-use super::gltf_load::triangle_count;
+use gltf::mesh::Mode;
 
 /// Resident memory of the program with a tiny scene (cornell: 6.8 MB peak).
 const BASE_BYTES: u64 = 7 << 20;
@@ -208,6 +208,16 @@ pub fn declared_triangles(scene: &gltf::Scene) -> (u64, u64) {
         stack.extend(node.children());
     }
     (triangles, emitters)
+}
+
+/// Triangles a primitive of `mode` with `count` indices (or vertices) makes: count/3 for
+/// TRIANGLES, count − 2 for strips and fans, 0 for modes without area.
+pub(super) fn triangle_count(mode: Mode, count: usize) -> usize {
+    match mode {
+        Mode::Triangles => count / 3,
+        Mode::TriangleStrip | Mode::TriangleFan => count.saturating_sub(2),
+        _ => 0,
+    }
 }
 
 #[cfg(test)]

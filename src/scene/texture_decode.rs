@@ -7,6 +7,8 @@
 
 use glam::Vec3;
 
+use crate::color::srgb_to_linear;
+
 /// Images with more texels than this (8192², 768 MiB as linear f32 RGB) are refused before
 /// anything is allocated.
 pub const MAX_TEXELS: u64 = 1 << 26;
@@ -15,16 +17,6 @@ pub const MAX_TEXELS: u64 = 1 << 26;
 /// 2 bits), so a PNG whose declared pixels need more than this many bytes per file byte is lying
 /// about its size and is refused before its buffer is allocated.
 const PNG_MAX_EXPANSION: u64 = 1032;
-
-/// The sRGB electro-optical transfer function: encoded value in [0, 1] → linear.
-#[inline]
-pub fn srgb_to_linear(c: f32) -> f32 {
-    if c <= 0.04045 {
-        c / 12.92
-    } else {
-        ((c + 0.055) / 1.055).powf(2.4)
-    }
-}
 
 /// Width, height and row-major linear RGB texels of a PNG or JPEG image.
 #[derive(Debug)]

@@ -11,7 +11,8 @@
 use std::cell::RefCell;
 
 use super::ShadingContext;
-use crate::lights::{luminance, polygon::projected_solid_angle, Light, Lights};
+use crate::color::luminance;
+use crate::lights::{polygon::projected_solid_angle, Light, Lights};
 
 /// The oracle's weight of one light at a shading point (f64).
 pub fn weight(light: &Light, ctx: &ShadingContext) -> f64 {
