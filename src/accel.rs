@@ -17,6 +17,7 @@ use obvhs::ray::Ray;
 use obvhs::triangle::Triangle as BvhTriangle;
 use obvhs::BvhBuildParams;
 
+use crate::cpu::has_avx2_fma;
 use crate::scene::Scene;
 
 /// A ray–triangle intersection: the scene triangle, the distance, and the barycentric weights
@@ -101,7 +102,7 @@ impl Accel {
         Accel {
             bvh,
             triangles,
-            avx2: has_avx2(),
+            avx2: has_avx2_fma(),
         }
     }
 
@@ -234,16 +235,6 @@ fn build_preset(triangles: usize) -> BvhBuildParams {
     } else {
         BvhBuildParams::medium_build()
     }
-}
-
-#[cfg(target_arch = "x86_64")]
-fn has_avx2() -> bool {
-    is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma")
-}
-
-#[cfg(not(target_arch = "x86_64"))]
-fn has_avx2() -> bool {
-    false
 }
 
 /// obvhs's node test clamps a child box's entry distance to a fixed 1e-4 (ignoring
@@ -388,7 +379,7 @@ mod tests {
             let target = tris_centre(&scene, (u() * 400.0) as usize);
             let dir = (target - origin).normalize();
             let expected = brute_force(&scene, origin, dir);
-            for avx2 in [false, has_avx2()] {
+            for avx2 in [false, has_avx2_fma()] {
                 accel.avx2 = avx2;
                 let got = accel.closest_hit(origin, dir, f32::INFINITY);
                 compared += 1;

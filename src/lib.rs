@@ -9,6 +9,7 @@
 pub mod accel;
 pub mod cli;
 pub mod color;
+pub mod cpu;
 pub mod film;
 pub mod image;
 pub mod integrator;

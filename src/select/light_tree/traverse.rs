@@ -8,6 +8,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::*;
+use crate::cpu::has_avx2_fma;
 
 /// A light bounding volume hierarchy over emitters' [`LightBounds`].
 #[derive(Clone, Debug)]
@@ -57,7 +58,7 @@ impl LightBvh {
         let tree = LightBvh {
             nodes: collapse(&nodes, &grid),
             lights: prims.len(),
-            avx2: has_avx2(),
+            avx2: has_avx2_fma(),
         };
         (tree, order)
     }
@@ -225,13 +226,4 @@ fn choose_lane(importances: &[f64; LANES], target: f64) -> (usize, f64) {
         below += importance;
     }
     last
-}
-#[cfg(target_arch = "x86_64")]
-fn has_avx2() -> bool {
-    is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma")
-}
-
-#[cfg(not(target_arch = "x86_64"))]
-fn has_avx2() -> bool {
-    false
 }
