@@ -328,7 +328,7 @@ fn sampled_frequencies_match_pmf() {
         }
     }
     println!(
-        "{with_dead_ends} of {points} shading points can reach a node whose children both \
+        "{with_dead_ends} of {points} shading points can reach a node whose children all \
          have importance 0 (largest probability {dead_mass:.3})"
     );
 }
