@@ -10,6 +10,7 @@ pub mod accel;
 pub mod cli;
 pub mod color;
 pub mod cpu;
+pub mod environment;
 pub mod film;
 pub mod image;
 pub mod integrator;

@@ -3,17 +3,17 @@
 //! power uses its emission averaged over the triangle's own uv footprint, not the factor or the
 //! whole image's mean.
 
-pub mod environment;
 pub mod polygon;
 pub mod power_stats;
 pub mod punctual;
-pub mod sky_irradiance;
 pub mod spherical_triangle;
 pub mod triangle;
 
 use glam::Vec3;
 
-pub use environment::{EnvironmentError, EnvironmentLight, EnvironmentMap, EnvironmentSample};
+pub use crate::environment::{
+    EnvironmentError, EnvironmentLight, EnvironmentMap, EnvironmentSample,
+};
 pub use punctual::{DeltaSample, DirectionalLight, PointLight};
 pub use triangle::{Technique, TriangleLight, TriangleSample};
 

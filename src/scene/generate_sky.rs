@@ -1,6 +1,6 @@
 //! An analytic sun-and-sky environment map and an outdoor scene to light with it.
 //!
-//! * [`sun_and_sky`]: an equirectangular map (the convention of `lights::environment`: +Y up,
+//! * [`sun_and_sky`]: an equirectangular map (the convention of `environment`: +Y up,
 //!   row 0 at the zenith, u = 1/2 toward −Z) of a smooth blue-to-white sky gradient with a
 //!   circumsolar glow, a dim ground below the horizon, and a small, very bright sun disc.
 //! * [`outdoor`]: boxes of several materials on a ground plane, with one small lamp panel, seen

@@ -27,7 +27,7 @@ use std::sync::Arc;
 
 use glam::{Vec2, Vec3};
 
-use crate::lights::EnvironmentMap;
+use crate::environment::EnvironmentMap;
 
 /// glTF metallic-roughness material: constant factors, and optional base-colour and emissive
 /// textures (indices into [`Scene::textures`]) that multiply them, read at TEXCOORD_0.

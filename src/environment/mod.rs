@@ -20,11 +20,13 @@ use std::sync::Arc;
 
 use glam::{DVec3, Vec3};
 
-use super::sky_irradiance::IrradianceTable;
+pub mod sky_irradiance;
+
 use crate::color::luminance;
 use crate::image::{read_exr_rgb, RgbImage};
 use crate::sampling::distribution::Distribution2D;
 use crate::sampling::warp::equirectangular_direction;
+use sky_irradiance::IrradianceTable;
 
 /// An environment map that cannot be used, naming its file.
 #[derive(Debug, thiserror::Error)]
