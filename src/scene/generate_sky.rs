@@ -188,7 +188,7 @@ impl Mesh {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::lights::EnvironmentMap;
+    use crate::environment::EnvironmentMap;
 
     #[test]
     fn the_sun_is_where_the_map_says_and_outshines_the_sky() {
