@@ -28,7 +28,7 @@ use criterion::measurement::{Measurement, ValueFormatter};
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use glam::Vec3;
 use manylights::accel::{offset_ray_origin, Accel};
-use manylights::scene::generate::city;
+use manylights::gen::generate::city;
 use manylights::scene::{load_gltf, load_gltf_bytes, Camera, Scene};
 use rand_core::{Rng, SeedableRng};
 use rand_pcg::Pcg32;

@@ -15,8 +15,8 @@
 use std::path::Path;
 
 use manylights::accel::Accel;
+use manylights::gen::generate::city;
 use manylights::lights::Lights;
-use manylights::scene::generate::city;
 use manylights::scene::{load_gltf, load_gltf_bytes, Scene};
 use manylights::select::{oracle, LightSelector, SelectorKind, ShadingContext};
 

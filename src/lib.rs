@@ -12,6 +12,7 @@ pub mod color;
 pub mod cpu;
 pub mod environment;
 pub mod film;
+pub mod gen;
 pub mod image;
 pub mod integrator;
 pub mod lights;

@@ -10,11 +10,12 @@
 use std::sync::Arc;
 
 use glam::{DVec3, Mat4, Vec3};
+use manylights::gen::sky;
 use manylights::image::RgbImage;
 use manylights::integrator::{render, PreparedScene, RenderOptions, Strategy};
 use manylights::lights::EnvironmentMap;
 use manylights::sampling::sampler::SamplerKind;
-use manylights::scene::{generate_sky, Camera, Material, Scene, Triangle};
+use manylights::scene::{Camera, Material, Scene, Triangle};
 use manylights::select::SelectorKind;
 
 const RHO: f32 = 0.6;
@@ -118,7 +119,7 @@ fn constant_sky() -> (EnvironmentMap, DVec3) {
 /// over the upper 8 rows' texels (each row's ∫cosθ dω = (π/W)·(sin²θ_{j+1} − sin²θ_j)).
 fn sun_and_sky() -> (EnvironmentMap, DVec3) {
     let (w, h) = (32, 16);
-    let image = generate_sky::sun_and_sky(w, h);
+    let image = sky::sun_and_sky(w, h);
     let sin2 = |j: usize| (std::f64::consts::PI * j as f64 / h as f64).sin().powi(2);
     let mut irradiance = DVec3::ZERO;
     for j in 0..h / 2 {

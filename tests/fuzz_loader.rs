@@ -22,7 +22,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Mutex, Once};
 use std::time::{Duration, Instant};
 
-use manylights::scene::generate;
+use manylights::gen::generate;
 use manylights::scene::{load_gltf_bytes, CameraChoice};
 use rand_core::{Rng, SeedableRng};
 use rand_pcg::Pcg32;

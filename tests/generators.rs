@@ -8,10 +8,10 @@ use std::process::{Command, Output};
 
 use glam::{DVec3, Vec3};
 use manylights::cli::gen::{build, SceneName};
+use manylights::gen::generate::extremes::{Probe, PROBES, RECEIVER_ALBEDO};
 use manylights::integrator::{render, PreparedScene, RenderOptions, SampleCounts, Strategy};
 use manylights::lights::Lights;
 use manylights::sampling::sampler::{Sampler, SamplerKind};
-use manylights::scene::generate::extremes::{Probe, PROBES, RECEIVER_ALBEDO};
 use manylights::scene::{load_gltf, load_gltf_bytes, CameraChoice, Scene, Triangle};
 use manylights::select::SelectorKind;
 

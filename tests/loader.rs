@@ -5,9 +5,9 @@
 use std::path::Path;
 
 use glam::Vec3;
+use manylights::gen::generate;
+use manylights::gen::gltf_write::{GltfBuilder, Material, NodeTransform};
 use manylights::lights::Lights;
-use manylights::scene::generate;
-use manylights::scene::gltf_write::{GltfBuilder, Material, NodeTransform};
 use manylights::scene::{load_gltf, CameraChoice, LoadError, Projection};
 
 mod common;

@@ -5,9 +5,10 @@
 //! combined standard error.
 
 use manylights::film::Film;
+use manylights::gen::generate;
 use manylights::integrator::{render, PreparedScene, RenderOptions, Strategy};
 use manylights::sampling::sampler::SamplerKind;
-use manylights::scene::{generate, load_gltf, CameraChoice, Scene};
+use manylights::scene::{load_gltf, CameraChoice, Scene};
 use manylights::select::SelectorKind;
 
 const SIZE: u32 = 24;

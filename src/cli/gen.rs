@@ -9,9 +9,9 @@ use clap::{Args, ValueEnum};
 
 use super::output::check_output_path;
 use super::UsageError;
+use crate::gen::gltf_write::GltfBuilder;
+use crate::gen::{generate, sky};
 use crate::image::write_exr;
-use crate::scene::gltf_write::GltfBuilder;
-use crate::scene::{generate, generate_sky};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum SceneName {
@@ -57,7 +57,7 @@ pub fn run(args: &GenArgs) -> anyhow::Result<()> {
             return Err(UsageError("gen sky: an environment map has no --lights".into()).into());
         }
         check_output_path(&args.output, "exr")?;
-        write_exr(&args.output, &generate_sky::sun_and_sky(256, 128), None)?;
+        write_exr(&args.output, &sky::sun_and_sky(256, 128), None)?;
         println!("wrote {}", args.output.display());
         return Ok(());
     }
@@ -104,7 +104,7 @@ pub fn build(name: SceneName, lights: Option<usize>, seed: u64) -> anyhow::Resul
             generate::textured(n, seed)
         }
         SceneName::Outdoor => match lights {
-            None => generate_sky::outdoor(),
+            None => sky::outdoor(),
             Some(_) => return Err(usage("has one lamp; drop --lights".into()).into()),
         },
         SceneName::Sky => {

@@ -5,13 +5,10 @@
 //! the material: a triangle whose material has non-zero emitted radiance is a light.
 
 mod camera;
-pub mod generate;
-pub mod generate_sky;
 mod gltf_camera;
 mod gltf_extensions;
 mod gltf_files;
 mod gltf_load;
-pub mod gltf_write;
 pub mod memory;
 pub mod texture;
 pub mod texture_decode;
