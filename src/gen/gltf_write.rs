@@ -6,13 +6,15 @@
 //! embedded as a base64 data URI (images live in that buffer too, behind
 //! buffer views). The same inputs always produce the same bytes.
 
-use std::fs;
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-use anyhow::{bail, Context};
+use anyhow::bail;
+use base64::Engine;
 use glam::{Mat3, Quat, Vec3};
 use serde_json::{json, Map, Value};
+
+use crate::image::write_atomically;
 
 /// Name of the extension used for emissive strengths other than 1.
 const EMISSIVE_STRENGTH_EXT: &str = "KHR_materials_emissive_strength";
@@ -415,7 +417,7 @@ impl GltfBuilder {
                 path.display()
             );
         };
-        write_atomically(path, &bytes)
+        write_atomically(path, |out| Ok(out.write_all(&bytes)?))
     }
 
     /// Returns the scene as a binary glTF (GLB) file.
@@ -449,7 +451,10 @@ impl GltfBuilder {
     fn to_gltf_bytes(&self) -> Vec<u8> {
         let (mut doc, bin) = self.document();
         if !bin.is_empty() {
-            let uri = format!("data:application/octet-stream;base64,{}", base64(&bin));
+            let uri = format!(
+                "data:application/octet-stream;base64,{}",
+                base64::engine::general_purpose::STANDARD.encode(&bin)
+            );
             doc["buffers"] = json!([{ "byteLength": bin.len(), "uri": uri }]);
         }
         let mut out = serde_json::to_vec_pretty(&doc).expect("a JSON value always serialises");
@@ -788,67 +793,11 @@ fn push_chunk(out: &mut Vec<u8>, kind: u32, data: &[u8]) {
     out.extend_from_slice(data);
 }
 
-/// Standard base64 (RFC 4648) with `=` padding.
-fn base64(bytes: &[u8]) -> String {
-    const ALPHABET: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut out = String::with_capacity(bytes.len().div_ceil(3) * 4);
-    for chunk in bytes.chunks(3) {
-        let b = [
-            chunk[0],
-            *chunk.get(1).unwrap_or(&0),
-            *chunk.get(2).unwrap_or(&0),
-        ];
-        let n = u32::from(b[0]) << 16 | u32::from(b[1]) << 8 | u32::from(b[2]);
-        for k in 0..4 {
-            if k <= chunk.len() {
-                out.push(char::from(ALPHABET[(n >> (18 - 6 * k) & 63) as usize]));
-            } else {
-                out.push('=');
-            }
-        }
-    }
-    out
-}
-
-/// Writes `bytes` to a temporary file next to `path`, then renames it over
-/// `path`. The temporary file is removed if anything fails.
-fn write_atomically(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
-    let tmp = temp_path(path)?;
-    let result = write_and_sync(&tmp, bytes).and_then(|()| {
-        fs::rename(&tmp, path)
-            .with_context(|| format!("renaming {} to {}", tmp.display(), path.display()))
-    });
-    if result.is_err() {
-        // Best effort: the temporary file may not even exist.
-        let _ = fs::remove_file(&tmp);
-    }
-    result
-}
-
-/// Creates (or truncates) `path`, writes `bytes` and flushes them to disk.
-fn write_and_sync(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
-    let mut file =
-        fs::File::create(path).with_context(|| format!("creating {}", path.display()))?;
-    file.write_all(bytes)
-        .with_context(|| format!("writing {}", path.display()))?;
-    file.sync_all()
-        .with_context(|| format!("syncing {}", path.display()))
-}
-
-/// `DIR/.NAME.tmp-PID` for the output `DIR/NAME`.
-fn temp_path(path: &Path) -> anyhow::Result<PathBuf> {
-    let name = path
-        .file_name()
-        .with_context(|| format!("{}: not a file path", path.display()))?;
-    let mut tmp_name = std::ffi::OsString::from(".");
-    tmp_name.push(name);
-    tmp_name.push(format!(".tmp-{}", std::process::id()));
-    Ok(path.with_file_name(tmp_name))
-}
-
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
+    use std::fs;
+    use std::path::PathBuf;
 
     /// A unique path in the system temp folder (removed by the caller).
     fn temp_file(tag: &str, ext: &str) -> PathBuf {
@@ -860,24 +809,9 @@ pub(crate) mod tests {
 
     /// Decodes standard padded base64 (test helper only).
     fn base64_decode(text: &str) -> Vec<u8> {
-        let value = |c: u8| match c {
-            b'A'..=b'Z' => u32::from(c - b'A'),
-            b'a'..=b'z' => u32::from(c - b'a') + 26,
-            b'0'..=b'9' => u32::from(c - b'0') + 52,
-            b'+' => 62,
-            b'/' => 63,
-            _ => panic!("invalid base64 byte {c}"),
-        };
-        let mut out = Vec::new();
-        for quad in text.as_bytes().chunks(4) {
-            let digits: Vec<u8> = quad.iter().copied().filter(|&c| c != b'=').collect();
-            let n = digits
-                .iter()
-                .enumerate()
-                .fold(0, |n, (k, &c)| n | value(c) << (18 - 6 * k));
-            out.extend_from_slice(&n.to_be_bytes()[1..digits.len()]);
-        }
-        out
+        base64::engine::general_purpose::STANDARD
+            .decode(text)
+            .expect("valid base64")
     }
 
     /// Parses a file with the `gltf` crate (validating it) and returns the
@@ -1103,30 +1037,18 @@ pub(crate) mod tests {
     }
 
     #[test]
-    fn base64_matches_rfc_4648_vectors() {
-        let cases = [
-            ("", ""),
-            ("f", "Zg=="),
-            ("fo", "Zm8="),
-            ("foo", "Zm9v"),
-            ("foobar", "Zm9vYmFy"),
-        ];
-        for (plain, encoded) in cases {
-            assert_eq!(base64(plain.as_bytes()), encoded);
-            assert_eq!(base64_decode(encoded), plain.as_bytes());
-        }
-    }
-
-    #[test]
     fn write_replaces_the_file_and_leaves_no_temporary() {
-        let path = temp_file("atomic", "glb");
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("atomic.glb");
         fs::write(&path, b"old contents").unwrap();
         let b = sample();
         b.write(&path).unwrap();
-        let written = fs::read(&path);
-        fs::remove_file(&path).unwrap();
-        assert_eq!(written.unwrap(), b.to_glb_bytes());
-        assert!(!temp_path(&path).unwrap().exists());
+        assert_eq!(fs::read(&path).unwrap(), b.to_glb_bytes());
+        let names: Vec<_> = fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(names, ["atomic.glb"]);
     }
 
     #[test]
