@@ -6,13 +6,15 @@ use std::hint::black_box;
 use std::path::Path;
 
 use criterion::{criterion_group, criterion_main, Criterion};
+mod common;
+use common::shading_points;
 use manylights::accel::Accel;
 use manylights::integrator::{render, PreparedScene, RenderOptions, Strategy};
 use manylights::lights::Lights;
 use manylights::sampling::rng::PixelRng;
 use manylights::sampling::sampler::SamplerKind;
 use manylights::scene::{load_gltf, Scene};
-use manylights::select::{LightSelector, SelectorKind, ShadingContext};
+use manylights::select::{LightSelector, SelectorKind};
 
 const SELECTORS: [SelectorKind; 4] = [
     SelectorKind::Uniform,
@@ -24,26 +26,6 @@ const SELECTORS: [SelectorKind; 4] = [
 fn town() -> Scene {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/town.glb");
     load_gltf(&path, &Default::default()).expect("scenes/town.glb loads")
-}
-
-/// Shading points where camera rays through a 32×32 grid hit the scene.
-fn shading_points(scene: &Scene, accel: &Accel) -> Vec<ShadingContext> {
-    let camera = scene.camera.as_ref().expect("town has a camera");
-    let mut points = Vec::new();
-    for j in 0..32 {
-        for i in 0..32 {
-            let (origin, dir) = camera.ray(i as f32 + 0.5, j as f32 + 0.5, 32, 32);
-            if let Some(hit) = accel.closest_hit(origin, dir, f32::INFINITY) {
-                let n = scene.triangles[hit.triangle as usize].geometric_normal();
-                let n = if n.dot(dir) > 0.0 { -n } else { n };
-                points.push(ShadingContext {
-                    p: origin + dir * hit.t,
-                    n,
-                });
-            }
-        }
-    }
-    points
 }
 
 fn town_benches(c: &mut Criterion) {
@@ -58,7 +40,7 @@ fn town_benches(c: &mut Criterion) {
         });
     }
     let accel = Accel::build(&scene);
-    let points = shading_points(&scene, &accel);
+    let points = shading_points(&scene, &accel, 32, 32);
     for kind in SELECTORS {
         let mut lights = Lights::from_scene(&scene);
         let selector = LightSelector::build(kind, &mut lights).expect("town has lights");

@@ -10,10 +10,12 @@
 //! contributing light has p_l = 0 (bias).
 //!
 //! Scenes: `scenes/town.glb` and the generated 50k city (seed 1, as `manylights gen city`).
-//! Run: `cargo bench --bench selection_quality` (about a minute; prints a table, times nothing).
+//! Run: `cargo bench --bench selection_quality` (about 30 s; prints a table, times nothing).
 
 use std::path::Path;
 
+mod common;
+use common::shading_points;
 use manylights::accel::Accel;
 use manylights::gen::generate::city;
 use manylights::lights::Lights;
@@ -22,27 +24,6 @@ use manylights::select::{oracle, LightSelector, SelectorKind, ShadingContext};
 
 /// Camera rays per image side (columns; rows follow the 4:3 frame).
 const GRID: u32 = 40;
-
-/// Shading points where camera rays through a GRID × 3/4 GRID grid hit the scene.
-fn shading_points(scene: &Scene, accel: &Accel) -> Vec<ShadingContext> {
-    let camera = scene.camera.as_ref().expect("the scene has a camera");
-    let (width, height) = (GRID, GRID * 3 / 4);
-    let mut points = Vec::new();
-    for j in 0..height {
-        for i in 0..width {
-            let (origin, dir) = camera.ray(i as f32 + 0.5, j as f32 + 0.5, width, height);
-            if let Some(hit) = accel.closest_hit(origin, dir, f32::INFINITY) {
-                let n = scene.triangles[hit.triangle as usize].geometric_normal();
-                let n = if n.dot(dir) > 0.0 { -n } else { n };
-                points.push(ShadingContext {
-                    p: origin + dir * hit.t,
-                    n,
-                });
-            }
-        }
-    }
-    points
-}
 
 /// χ² over the shading points, and the points where a contributing light has p_l = 0.
 struct Divergence {
@@ -111,7 +92,7 @@ fn main() {
     );
     for (name, scene) in [("town", &town), ("city50k", &city)] {
         let accel = Accel::build(scene);
-        let points = shading_points(scene, &accel);
+        let points = shading_points(scene, &accel, GRID, GRID * 3 / 4);
         for kind in [
             SelectorKind::Uniform,
             SelectorKind::Power,

@@ -329,7 +329,7 @@ fn instancing_past_the_triangle_cap_is_refused_before_reading_buffers() {
 }
 
 /// Found by the coverage-guided fuzzer (`fuzz/`, target gltf_loader): scenes/textured.glb mutated
-/// so that its 512 emissive triangles have large uv footprints, each integrated texel cell by
+/// so that its 511 emissive triangles have large uv footprints, each integrated texel cell by
 /// texel cell for its emitter's power (0.60 s for this 13 kB file before footprints were capped
 /// at 2^18 cells). It loads, and every emitter's power is finite.
 #[test]

@@ -159,7 +159,8 @@ fn check_declared_size(path: &Path) -> anyhow::Result<u64> {
 
 /// Files below this size are decompressed on the calling thread: the exr crate's parallel
 /// reader starts a thread pool of its own for every file, which costs more than a small file's
-/// decompression (a 2 kB file took 2.6 ms to read in parallel).
+/// decompression (fuzzing 2 kB files ran at 380 reads/s in parallel, about 9,100 on the calling
+/// thread).
 const PARALLEL_READ_MIN_BYTES: u64 = 1 << 20;
 
 /// Reads the first layer of an OpenEXR file: the `R`, `G`, `B` channels as the

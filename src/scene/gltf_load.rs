@@ -34,7 +34,7 @@ use super::gltf_camera::choose_camera;
 pub use super::gltf_camera::CameraChoice;
 use super::gltf_extensions::{check_required_extensions, convert_light};
 use super::gltf_files::{read_uri, FileAccess};
-use super::memory::{declared_triangles, human, triangle_count, MemoryBudget, MemoryEstimate};
+use super::memory::{declared_sizes, human, triangle_count, MemoryBudget, MemoryEstimate};
 use super::texture_decode::decode_image;
 use super::{
     geometric_normal, LoadStats, Material, PunctualUnits, Scene, Texture, Triangle, UvTransform,
@@ -187,7 +187,7 @@ pub fn load_gltf_bytes_allowing(
         .default_scene()
         .or_else(|| document.scenes().next())
         .ok_or_else(|| invalid("scenes".into(), "the file has no scene".into()))?;
-    let (declared, emitters) = declared_triangles(&scene);
+    let (declared, emitters) = declared_sizes(&scene);
     if let Some(budget) = &policy.memory {
         let estimate = MemoryEstimate {
             file_bytes: bytes.len() as u64,

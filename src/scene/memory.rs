@@ -179,7 +179,7 @@ pub fn available_memory() -> Option<u64> {
 /// (or vertex) counts; a primitive counts as emissive when its material has a non-zero
 /// emissive factor or an emissive texture. A node reached twice is counted once (the traversal
 /// refuses it later).
-pub fn declared_triangles(scene: &gltf::Scene) -> (u64, u64) {
+pub fn declared_sizes(scene: &gltf::Scene) -> (u64, u64) {
     let mut seen = HashSet::new();
     let mut stack: Vec<gltf::Node> = scene.nodes().collect();
     let (mut triangles, mut emitters) = (0u64, 0u64);

@@ -71,7 +71,7 @@ impl Wrap {
 /// repeating texture, an approximation otherwise). The footprint mean only sets an emitter's
 /// power for light selection (the estimator reads the texture at each point), so the
 /// approximation costs efficiency, never correctness; the cap bounds the work per triangle (a
-/// 13 kB fuzzed GLB whose 512 emissive triangles had large uv footprints took 0.60 s to load
+/// 13 kB fuzzed GLB whose 511 emissive triangles had large uv footprints took 0.60 s to load
 /// with a cap of 2^24 cells).
 const MAX_FOOTPRINT_CELLS: f64 = (1u64 << 18) as f64;
 

@@ -61,9 +61,16 @@ pub(super) fn bounding_radius(centre: Vec3, half_diagonal_sq: f32) -> f32 {
 }
 
 /// sin θ from cos θ for θ ∈ [0, π], written (1 − c)(1 + c) to stay accurate
-/// near c = ±1.
+/// near c = ±1 (0 for |c| ≥ 1 or NaN; a plain comparison, so it vectorises in
+/// the importance lanes).
+#[inline(always)]
 pub(super) fn sin_of(cos: f32) -> f32 {
-    ((1.0 - cos) * (1.0 + cos)).max(0.0).sqrt()
+    let sin_sq = (1.0 - cos) * (1.0 + cos);
+    if sin_sq > 0.0 {
+        sin_sq.sqrt()
+    } else {
+        0.0
+    }
 }
 
 /// cos(α + β) from cos α, cos β and sin β, α, β ∈ [0, π]; −1 once α + β ≥ π.

@@ -26,12 +26,6 @@ fn max(a: f32, b: f32) -> f32 {
     }
 }
 
-/// sin θ from cos θ, θ ∈ [0, π], as √((1 − c)(1 + c)) (accurate near ±1).
-#[inline(always)]
-fn sin_of(cos: f32) -> f32 {
-    max((1.0 - cos) * (1.0 + cos), 0.0).sqrt()
-}
-
 /// (cos, sin) of max(0, α − β) from those of α and β, α, β ∈ [0, π].
 #[inline(always)]
 fn minus(cos_a: f32, sin_a: f32, cos_b: f32, sin_b: f32) -> (f32, f32) {
@@ -46,7 +40,8 @@ fn minus(cos_a: f32, sin_a: f32, cos_b: f32, sin_b: f32) -> (f32, f32) {
 }
 
 /// The importance of each lane of `node` at receiver `p` with unit normal `n`
-/// (`Vec3::ZERO`: no receiver term). `p` and `n` must be finite. Written lane
+/// (`Vec3::ZERO`: no receiver term). `p` and `n` must be finite (the callers
+/// check). Written lane
 /// by lane over the node's field arrays, which the compiler turns into SIMD
 /// across the eight lanes (8-wide where the caller enables AVX).
 #[inline(always)]

@@ -66,7 +66,7 @@ impl LightBvh {
     /// Whether some light in the tree may reach the upper hemisphere of a
     /// receiver at (p, n) (some root lane has positive importance).
     pub fn can_reach(&self, p: Vec3, n: Vec3) -> bool {
-        self.importances(0, p, n).is_some()
+        is_finite(p, n) && self.importances(0, p, n).is_some()
     }
 
     /// Chooses a light (its id in leaf order) with probability proportional
@@ -94,6 +94,9 @@ impl LightBvh {
 
     #[inline(always)]
     fn sample_portable(&self, p: Vec3, n: Vec3, u: f64) -> Option<(usize, f64)> {
+        if !is_finite(p, n) {
+            return None;
+        }
         let mut u = if u >= 0.0 {
             u.min(LARGEST_BELOW_ONE)
         } else {
@@ -138,7 +141,7 @@ impl LightBvh {
 
     #[inline(always)]
     fn pmf_portable(&self, p: Vec3, n: Vec3, light: usize) -> f64 {
-        if light >= self.lights {
+        if light >= self.lights || !is_finite(p, n) {
             return 0.0;
         }
         let light = light as u32;
@@ -190,7 +193,7 @@ impl LightBvh {
 
     /// The lanes' importances I_k at wide node `index` in f64, and their sum
     /// Σ I (lane k is chosen with probability I_k / Σ I); `None` when the sum
-    /// is 0, the node does not exist, or (p, n) is not finite.
+    /// is 0 or the node does not exist. (p, n) must be finite (see [`is_finite`]).
     #[inline(always)]
     pub(super) fn importances(
         &self,
@@ -199,13 +202,16 @@ impl LightBvh {
         n: Vec3,
     ) -> Option<([f64; LANES], f64)> {
         let node = self.nodes.get(index)?;
-        if !(p.is_finite() && n.is_finite()) {
-            return None;
-        }
         let importances = importances(node, p, n).map(f64::from);
         let total: f64 = importances.iter().sum();
         (total > 0.0).then_some((importances, total))
     }
+}
+
+/// Whether a receiver can be evaluated: the importance assumes finite p and n.
+#[inline(always)]
+fn is_finite(p: Vec3, n: Vec3) -> bool {
+    p.is_finite() && n.is_finite()
 }
 
 /// The lane whose part of [0, Σ I) holds `target` (lane k's part is
