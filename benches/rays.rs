@@ -6,7 +6,10 @@
 //!   uniformly chosen emissive triangle, both ends moved off their surfaces exactly as
 //!   `Accel::segment_occluded` does (any hit);
 //! * `bounce_closest`: from each camera hit, a cosine-weighted direction about the face-forward
-//!   geometric normal (closest hit, unbounded).
+//!   geometric normal (closest hit, unbounded);
+//! * `pixel_closest`: `PACKET` jittered camera rays per pixel of a 64-pixel-wide image, traced
+//!   one at a time, and `pixel_closest_packets`: the same rays, each pixel's in one packet
+//!   (`Accel::closest_hits`), as the renderer traces a pixel's samples.
 //!
 //! Scenes: `scenes/cornell.glb`, `scenes/town.glb`, and the generated `city` with 50,000 emitters
 //! (seed 1, as `manylights gen city`); with `MANYLIGHTS_BENCH_1M=1` also the 1,000,000-emitter
@@ -27,7 +30,7 @@ use std::time::Duration;
 use criterion::measurement::{Measurement, ValueFormatter};
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use glam::Vec3;
-use manylights::accel::{offset_ray_origin, Accel};
+use manylights::accel::{offset_ray_origin, Accel, PACKET};
 use manylights::gen::generate::city;
 use manylights::scene::{load_gltf, load_gltf_bytes, Camera, Scene};
 use rand_core::{Rng, SeedableRng};
@@ -123,6 +126,24 @@ impl RaySet {
         self.origins.len()
     }
 
+    /// Number of closest hits, tracing each run of `PACKET` rays as one packet.
+    fn trace_packets(&self, accel: &Accel) -> usize {
+        let mut count = 0;
+        let mut hits = [None; PACKET];
+        let rays: Vec<(Vec3, Vec3)> = self
+            .origins
+            .iter()
+            .copied()
+            .zip(self.dirs.iter().copied())
+            .collect();
+        for packet in rays.chunks(PACKET) {
+            let hits = &mut hits[..packet.len()];
+            accel.closest_hits(packet, hits);
+            count += hits.iter().filter(|h| h.is_some()).count();
+        }
+        count
+    }
+
     /// Number of closest hits (or of occluded rays, when `occlusion`).
     fn trace(&self, accel: &Accel, occlusion: bool) -> usize {
         let mut count = 0;
@@ -151,6 +172,31 @@ fn cosine_direction(n: Vec3, u1: f32, u2: f32) -> Vec3 {
     let (x, y) = (r * phi.cos(), r * phi.sin());
     let z = (1.0 - u1).max(0.0).sqrt();
     (x * t + y * b + z * n).normalize()
+}
+
+/// Width of the image whose pixels each get `PACKET` camera rays.
+const PIXEL_SET_WIDTH: u32 = 64;
+
+/// `PACKET` jittered camera rays per pixel, a pixel's rays consecutive.
+fn record_pixels(scene: &Scene, seed: u64) -> RaySet {
+    let (lo, hi) = scene.bounds();
+    let camera = scene
+        .camera
+        .clone()
+        .unwrap_or_else(|| Camera::framing(lo, hi, 1.0));
+    let (width, height) = camera.resolution(PIXEL_SET_WIDTH, None);
+    let mut rng = Pcg32::seed_from_u64(seed);
+    let mut set = RaySet::new("pixel_closest");
+    for y in 0..height {
+        for x in 0..width {
+            for _ in 0..PACKET {
+                let (jx, jy) = (uniform(&mut rng), uniform(&mut rng));
+                let (origin, dir) = camera.ray(x as f32 + jx, y as f32 + jy, width, height);
+                set.push(origin, dir, f32::INFINITY);
+            }
+        }
+    }
+    set
 }
 
 /// Records the three ray sets of one frame: camera rays, and at every camera hit one shadow ray
@@ -249,7 +295,8 @@ fn dump(dir: &Path, scene_name: &str, scene: &Scene, sets: &[RaySet]) {
 
 fn bench_scene(c: &mut Criterion<ThreadCpuTime>, name: &str, scene: &Scene) {
     let accel = Accel::build(scene);
-    let sets = record(scene, &accel, 7);
+    let [cam, shadow, bounce] = record(scene, &accel, 7);
+    let sets = [cam, shadow, bounce, record_pixels(scene, 8)];
     if let Some(dir) = std::env::var_os("MANYLIGHTS_DUMP_RAYS") {
         dump(Path::new(&dir), name, scene, &sets);
     }
@@ -265,6 +312,11 @@ fn bench_scene(c: &mut Criterion<ThreadCpuTime>, name: &str, scene: &Scene) {
             b.iter(|| black_box(set.trace(&accel, occlusion)))
         });
     }
+    let pixels = &sets[3];
+    group.throughput(Throughput::Elements(pixels.len() as u64));
+    group.bench_function("pixel_closest_packets", |b| {
+        b.iter(|| black_box(pixels.trace_packets(&accel)))
+    });
     group.finish();
 }
 

@@ -88,6 +88,11 @@ def main():
             ours_text = f"{ours / 1e6:13.2f} {ours / embree:12.2f}" if ours else f"{'-':>13} {'-':>12}"
             print(f"{folder.name:<10} {set_path.stem:<16} {len(rays):>8} {count:>8} "
                   f"{embree / 1e6:15.2f} {ours_text}")
+            # The same rays traced by us in packets (a pixel's rays in one walk), if benched.
+            packets = ours_rays_per_s(args.criterion, folder.name, set_path.stem + "_packets", len(rays))
+            if packets:
+                print(f"{folder.name:<10} {'  in packets':<16} {len(rays):>8} {count:>8} "
+                      f"{embree / 1e6:15.2f} {packets / 1e6:13.2f} {packets / embree:12.2f}")
 
 
 if __name__ == "__main__":

@@ -117,8 +117,21 @@ impl Estimator<'_> {
         cs: &CameraSample,
         counts: &mut SampleCounts,
     ) -> Vec3 {
+        let hit = self.accel.closest_hit(origin, dir, f32::INFINITY);
+        self.radiance_from(hit, dir, cs, counts)
+    }
+
+    /// Radiance arriving at the camera along the unit direction `dir` whose closest hit is
+    /// `hit` (traced by the caller, e.g. a pixel's samples in one packet).
+    pub fn radiance_from(
+        &self,
+        hit: Option<Hit>,
+        dir: Vec3,
+        cs: &CameraSample,
+        counts: &mut SampleCounts,
+    ) -> Vec3 {
         counts.camera_rays += 1;
-        let Some(hit) = self.accel.closest_hit(origin, dir, f32::INFINITY) else {
+        let Some(hit) = hit else {
             return self.environment_radiance(dir);
         };
         let tri = &self.scene.triangles[hit.triangle as usize];

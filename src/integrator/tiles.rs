@@ -6,9 +6,10 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::estimator::{Estimator, SampleCounts};
+use crate::accel::PACKET;
 use crate::color::luminance;
 use crate::film::{classify, Film, PixelStats, SampleClass};
-use crate::sampling::sampler::{Sampler, SamplerKind};
+use crate::sampling::sampler::{CameraSample, Sampler, SamplerKind};
 use crate::scene::Camera;
 
 const TILE: u32 = 16;
@@ -117,22 +118,37 @@ fn render_tile(
             luminances.clear();
             let pixel_sampler = sampler.pixel(y as u64 * w as u64 + x as u64);
             let mut pixel = PixelStats::default();
-            for s in 0..opts.spp {
-                let cs = pixel_sampler.camera_sample(s);
-                let [jx, jy] = cs.pixel_jitter();
-                let (origin, dir) = camera.ray(x as f32 + jx, y as f32 + jy, w, h);
-                let surface_hits = stats.rays.surface_hits;
-                let l = estimator.radiance(origin, dir, &cs, &mut stats.rays);
-                stats.camera_samples += 1;
-                match classify(l) {
-                    SampleClass::Finite => {
-                        luminances.push(luminance(l));
-                        let l = opts.clamp.map_or(l, |c| l.min(Vec3::splat(c)));
-                        pixel.add(l.as_dvec3());
-                        pixel.surface += stats.rays.surface_hits - surface_hits;
+            // The pixel's camera rays go through the BVH PACKET at a time; each sample is then
+            // shaded in order, so the pixel's sums are the same as one ray at a time.
+            for first in (0..opts.spp).step_by(PACKET) {
+                let count = (opts.spp - first).min(PACKET as u32) as usize;
+                // Slots past the pixel's last sample repeat it and are never traced.
+                let samples: [CameraSample; PACKET] = std::array::from_fn(|i| {
+                    pixel_sampler.camera_sample(first + i.min(count - 1) as u32)
+                });
+                let rays: [(Vec3, Vec3); PACKET] = std::array::from_fn(|i| {
+                    let [jx, jy] = samples[i].pixel_jitter();
+                    camera.ray(x as f32 + jx, y as f32 + jy, w, h)
+                });
+                let mut hits = [None; PACKET];
+                estimator
+                    .accel
+                    .closest_hits(&rays[..count], &mut hits[..count]);
+                for i in 0..count {
+                    let surface_hits = stats.rays.surface_hits;
+                    let l =
+                        estimator.radiance_from(hits[i], rays[i].1, &samples[i], &mut stats.rays);
+                    stats.camera_samples += 1;
+                    match classify(l) {
+                        SampleClass::Finite => {
+                            luminances.push(luminance(l));
+                            let l = opts.clamp.map_or(l, |c| l.min(Vec3::splat(c)));
+                            pixel.add(l.as_dvec3());
+                            pixel.surface += stats.rays.surface_hits - surface_hits;
+                        }
+                        SampleClass::Nan => stats.nan_samples += 1,
+                        SampleClass::Infinite => stats.inf_samples += 1,
                     }
-                    SampleClass::Nan => stats.nan_samples += 1,
-                    SampleClass::Infinite => stats.inf_samples += 1,
                 }
             }
             count_fireflies(&luminances, &mut stats);

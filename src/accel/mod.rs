@@ -1,8 +1,9 @@
 //! Ray queries over the scene's triangles with obvhs's compressed 8-wide BVH (CWBVH):
 //! closest hit for camera and hemisphere rays, any hit (first hit ends the walk) for shadow
 //! rays. The walk is obvhs's `traverse!` loop with our own triangle test, which returns the
-//! barycentrics with the distance; on CPUs with AVX2 + FMA the same code is compiled a second
-//! time for them and chosen at run time (the binary still runs on any x86-64).
+//! barycentrics with the distance; on CPUs with AVX2 + FMA the walk is compiled a second time
+//! for them, with an eight-children-at-once node test (`node_avx2`), and chosen at run time
+//! (the binary still runs on any x86-64).
 //!
 //! Triangle test (Möller & Trumbore, "Fast, Minimum Storage Ray/Triangle Intersection", 1997,
 //! in the one-cross-product form with a stored normal): with E1 = v1 − v0, E2 = v2 − v0,
@@ -12,13 +13,21 @@
 //! infinite or NaN weight and fails the tests.
 
 use glam::{UVec2, Vec3, Vec3A};
-use obvhs::cwbvh::{builder::build_cwbvh_from_tris, CwBvh};
+use obvhs::cwbvh::{builder::build_cwbvh_from_tris, node::CwBvhNode, CwBvh};
 use obvhs::ray::Ray;
 use obvhs::triangle::Triangle as BvhTriangle;
 use obvhs::BvhBuildParams;
 
 use crate::cpu::has_avx2_fma;
 use crate::scene::Scene;
+
+#[cfg(target_arch = "x86_64")]
+mod node_avx2;
+#[cfg(target_arch = "x86_64")]
+mod packet_avx2;
+
+/// The most rays `Accel::closest_hits` traces in one walk.
+pub const PACKET: usize = 8;
 
 /// A ray–triangle intersection: the scene triangle, the distance, and the barycentric weights
 /// (b1, b2) of its vertices 1 and 2.
@@ -122,7 +131,28 @@ impl Accel {
             // SAFETY: `avx2` is true only when the CPU reported AVX2 and FMA.
             return unsafe { self.closest_hit_avx2(&ray) };
         }
-        self.closest_hit_walk(&ray)
+        self.closest_hit_walk::<false>(&ray)
+    }
+
+    /// The nearest intersections (t in [0, ∞)) of up to `PACKET` rays (origin, unit direction),
+    /// written to `hits`: each equals what `closest_hit` returns for that ray, up to a tie
+    /// between two triangles at exactly the same distance. Rays that start close together and
+    /// point the same way (the samples of one pixel) share one walk of the BVH on AVX2 CPUs.
+    pub fn closest_hits(&self, rays: &[(Vec3, Vec3)], hits: &mut [Option<Hit>]) {
+        assert!(rays.len() <= PACKET && hits.len() == rays.len());
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 && rays.len() > 1 {
+            let mut guarded = [guarded_ray(Vec3::ZERO, Vec3::Z, 0.0); PACKET];
+            for (g, &(origin, dir)) in guarded.iter_mut().zip(rays) {
+                *g = guarded_ray(origin, dir, f32::INFINITY);
+            }
+            // SAFETY: `avx2` is true only when the CPU reported AVX2 and FMA.
+            unsafe { self.closest_hits_avx2(&mut guarded[..rays.len()], hits) };
+            return;
+        }
+        for (hit, &(origin, dir)) in hits.iter_mut().zip(rays) {
+            *hit = self.closest_hit(origin, dir, f32::INFINITY);
+        }
     }
 
     /// Whether anything lies on the segment origin + t·dir, t ∈ [0, tmax).
@@ -134,7 +164,7 @@ impl Accel {
             // SAFETY: `avx2` is true only when the CPU reported AVX2 and FMA.
             return unsafe { self.occluded_avx2(&ray) };
         }
-        self.occluded_walk(&ray)
+        self.occluded_walk::<false>(&ray)
     }
 
     /// Whether the segment from surface point `a` (unit normal `na` on the segment's side) to
@@ -154,7 +184,7 @@ impl Accel {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
     unsafe fn closest_hit_avx2(&self, ray: &Ray) -> Option<Hit> {
-        self.closest_hit_walk(ray)
+        self.closest_hit_walk::<true>(ray)
     }
 
     /// # Safety
@@ -162,12 +192,24 @@ impl Accel {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
     unsafe fn occluded_avx2(&self, ray: &Ray) -> bool {
-        self.occluded_walk(ray)
+        self.occluded_walk::<true>(ray)
+    }
+
+    /// The children of `node` the ray hits, as obvhs's traversal mask. `AVX2` is true only
+    /// inside the `avx2` functions, which have checked the CPU.
+    #[inline(always)]
+    fn node_hits<const AVX2: bool>(node: &CwBvhNode, ray: &Ray, oct_inv4: u32) -> u32 {
+        #[cfg(target_arch = "x86_64")]
+        if AVX2 {
+            // SAFETY: only the `avx2` walks pass AVX2 = true, after the CPU check.
+            return unsafe { node_avx2::intersect_node(node, ray, oct_inv4) };
+        }
+        node.intersect_ray(ray, oct_inv4)
     }
 
     /// Closest hit of a guarded ray, its distance measured from the unguarded origin.
     #[inline(always)]
-    fn closest_hit_walk(&self, ray: &Ray) -> Option<Hit> {
+    fn closest_hit_walk<const AVX2: bool>(&self, ray: &Ray) -> Option<Hit> {
         let mut walk_ray = *ray;
         let mut best: Option<(u32, f32, f32)> = None;
         let mut state = self.bvh.new_traversal(ray.direction);
@@ -176,7 +218,7 @@ impl Accel {
             self.bvh,
             node,
             state,
-            node.intersect_ray(&walk_ray, state.oct_inv4),
+            Self::node_hits::<AVX2>(node, &walk_ray, state.oct_inv4),
             {
                 let slot = state.primitive_id;
                 if let Some((t, b1, b2)) = self.triangles[slot as usize].intersect(&walk_ray) {
@@ -195,7 +237,7 @@ impl Accel {
 
     /// Whether a guarded ray hits anything; the walk ends at the first hit.
     #[inline(always)]
-    fn occluded_walk(&self, ray: &Ray) -> bool {
+    fn occluded_walk<const AVX2: bool>(&self, ray: &Ray) -> bool {
         let mut hit = false;
         let mut state = self.bvh.new_traversal(ray.direction);
         let mut node;
@@ -206,7 +248,7 @@ impl Accel {
                 self.bvh,
                 node,
                 state,
-                node.intersect_ray(ray, state.oct_inv4),
+                Self::node_hits::<AVX2>(node, ray, state.oct_inv4),
                 {
                     if self.triangles[state.primitive_id as usize]
                         .intersect(ray)
@@ -418,6 +460,47 @@ mod tests {
             }
         }
         assert!(hits > compared / 2, "only {hits} hits of {compared}");
+    }
+
+    #[test]
+    fn packets_find_the_hits_of_single_rays() {
+        use rand_core::{Rng, SeedableRng};
+        let mut rng = rand_pcg::Pcg32::seed_from_u64(5);
+        let mut u = move || (rng.next_u32() >> 8) as f32 / (1u32 << 24) as f32;
+        let mut tris = Vec::new();
+        for _ in 0..3000 {
+            let c = Vec3::new(u(), u(), u()) * 10.0;
+            let p = [0, 1, 2].map(|_| c + (Vec3::new(u(), u(), u()) - Vec3::splat(0.5)) * 0.6);
+            tris.push(Triangle::flat(p, 0));
+        }
+        let scene = Scene::new(tris, vec![Material::default()], None).unwrap();
+        let accel = Accel::build(&scene);
+        let mut hits = 0;
+        for packet in 0..400 {
+            // Half the packets are a pixel's rays (one origin, directions within 0.01 rad), half
+            // scatter over the sphere from nearby origins; sizes 1..=PACKET.
+            let size = 1 + packet % PACKET;
+            let origin = Vec3::new(u(), u(), u()) * 12.0 - Vec3::ONE;
+            let axis = (Vec3::splat(5.0) - origin).normalize();
+            let rays: Vec<(Vec3, Vec3)> = (0..size)
+                .map(|_| {
+                    let jitter = Vec3::new(u(), u(), u()) - Vec3::splat(0.5);
+                    if packet % 2 == 0 {
+                        (origin, (axis + 0.02 * jitter).normalize())
+                    } else {
+                        (origin + 0.1 * jitter, (jitter + 1e-3 * axis).normalize())
+                    }
+                })
+                .collect();
+            let mut got = vec![None; size];
+            accel.closest_hits(&rays, &mut got);
+            for (&(o, d), got) in rays.iter().zip(&got) {
+                let alone = accel.closest_hit(o, d, f32::INFINITY);
+                assert_eq!(*got, alone, "packet {packet}: ray {o} {d}");
+                hits += alone.is_some() as usize;
+            }
+        }
+        assert!(hits > 400, "only {hits} hits");
     }
 
     #[test]

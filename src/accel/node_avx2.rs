@@ -1,0 +1,106 @@
+//! obvhs's CWBVH node test with all eight children in one AVX2 pass.
+//!
+//! A child box is stored as 8-bit offsets q on the node's grid: plane = p + 2^e · q per axis.
+//! The ray is moved into that grid instead (slab test, Kay & Kajiya 1986): with
+//! s = 2^e / d and o' = (p − o) / d per axis, a plane's distance is t = q·s + o'. A child is hit
+//! when max(t_near) ≤ min(t_far) after clamping to [1e-4, ray.tmax], exactly as obvhs's own
+//! test (`CwBvhNode::intersect_ray`): the same products, sums and min/max operand order, so the
+//! two return the same hit mask bit for bit (NaN lanes from 0 · ∞ included). obvhs converts each
+//! child's bytes to floats one at a time, four children per pass; here one widening conversion
+//! per axis bound serves all eight, and the traversal mask is built in the vector too.
+
+#[cfg(target_arch = "x86_64")]
+use std::arch::x86_64::*;
+
+use glam::Vec3A;
+use obvhs::cwbvh::node::CwBvhNode;
+use obvhs::ray::Ray;
+
+/// The hit mask of obvhs's traversal (`traverse!`): for each child the ray hits, its
+/// traversal bits shifted to its priority slot (inner children) or its primitive bits (leaves).
+///
+/// # Safety
+/// The CPU must support AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline]
+pub(super) unsafe fn intersect_node(node: &CwBvhNode, ray: &Ray, oct_inv4: u32) -> u32 {
+    /// obvhs's fixed lower clamp of a child's entry distance.
+    const ENTRY_EPSILON: f32 = 1e-4;
+    let scale = node.compute_extent() * ray.inv_direction;
+    let shift = (Vec3A::from(node.p) - ray.origin) * ray.inv_direction;
+
+    let d = ray.direction;
+    let (near_x, far_x) = slab(
+        &node.child_min_x,
+        &node.child_max_x,
+        d.x < 0.0,
+        scale.x,
+        shift.x,
+    );
+    let (near_y, far_y) = slab(
+        &node.child_min_y,
+        &node.child_max_y,
+        d.y < 0.0,
+        scale.y,
+        shift.y,
+    );
+    let (near_z, far_z) = slab(
+        &node.child_min_z,
+        &node.child_max_z,
+        d.z < 0.0,
+        scale.z,
+        shift.z,
+    );
+    let entry = _mm256_max_ps(near_x, _mm256_max_ps(near_y, near_z));
+    let exit = _mm256_min_ps(far_x, _mm256_min_ps(far_y, far_z));
+    let entry = _mm256_max_ps(entry, _mm256_set1_ps(ENTRY_EPSILON));
+    let exit = _mm256_min_ps(exit, _mm256_set1_ps(ray.tmax));
+    let hit = _mm256_castps_si256(_mm256_cmp_ps::<_CMP_LE_OS>(entry, exit));
+
+    // Per child: its bits << its bit index, kept where hit, then OR-ed over the eight lanes
+    // (the children's bits never overlap).
+    let (child_bits8, bit_index8) = node.get_child_and_index_bits(oct_inv4);
+    let lanes = |x: u64| bytes_to_lanes(_mm_cvtsi64_si128(x as i64));
+    let bits = _mm256_and_si256(
+        _mm256_sllv_epi32(lanes(child_bits8), lanes(bit_index8)),
+        hit,
+    );
+    let half = _mm_or_si128(
+        _mm256_castsi256_si128(bits),
+        _mm256_extracti128_si256::<1>(bits),
+    );
+    let pair = _mm_or_si128(half, _mm_shuffle_epi32::<0b01_00_11_10>(half));
+    let one = _mm_or_si128(pair, _mm_shuffle_epi32::<0b10_11_00_01>(pair));
+    _mm_cvtsi128_si32(one) as u32
+}
+
+/// The low eight bytes of `bytes` as eight u32 lanes.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline]
+unsafe fn bytes_to_lanes(bytes: __m128i) -> __m256i {
+    _mm256_cvtepu8_epi32(bytes)
+}
+
+/// Eight u8 grid offsets as eight f32 lanes.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline]
+unsafe fn widen(q: &[u8; 8]) -> __m256 {
+    _mm256_cvtepi32_ps(bytes_to_lanes(_mm_loadl_epi64(q.as_ptr().cast())))
+}
+
+/// Distances t = q·s + o to the near and far planes of one axis for the eight children, the
+/// two bounds swapped where the ray runs toward −axis.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline]
+unsafe fn slab(lo: &[u8; 8], hi: &[u8; 8], negative: bool, s: f32, o: f32) -> (__m256, __m256) {
+    let (near, far) = if negative { (hi, lo) } else { (lo, hi) };
+    let (s, o) = (_mm256_set1_ps(s), _mm256_set1_ps(o));
+    (
+        _mm256_add_ps(_mm256_mul_ps(widen(near), s), o),
+        _mm256_add_ps(_mm256_mul_ps(widen(far), s), o),
+    )
+}
