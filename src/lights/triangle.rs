@@ -132,7 +132,7 @@ impl TriangleLight {
     /// The solid-angle view of this triangle from p, when that technique applies there
     /// (Ω above MIN_SPHERICAL_SOLID_ANGLE; split at the foot from MAX_SPHERICAL_SOLID_ANGLE on).
     fn spherical_at(&self, p: Vec3, technique: Technique) -> Option<SolidAngleView> {
-        if technique != Technique::SolidAngle {
+        if technique != Technique::SolidAngle || self.solid_angle_surely_small(p) {
             return None;
         }
         let view = SphericalTriangle::new(p, self.vertices())?;
@@ -156,6 +156,22 @@ impl TriangleLight {
             omega,
             total,
         })
+    }
+
+    /// Whether Ω from p is surely at most MIN_SPHERICAL_SOLID_ANGLE, without computing it: the
+    /// triangle lies in the ball about its centroid c whose radius R reaches its farthest
+    /// vertex, so Ω is at most the cone's 2π(1 − cos α) ≤ 2π·sin²α = 2π·R²/|p − c|². A 1%
+    /// margin covers rounding, so this never says yes where the exact Ω (f64) exceeds the
+    /// threshold: it only spares distant triangles the spherical set-up.
+    #[inline]
+    fn solid_angle_surely_small(&self, p: Vec3) -> bool {
+        let c = self.p0 + (self.e1 + self.e2) * (1.0 / 3.0);
+        let to_p0 = self.p0 - c;
+        let r2 = to_p0
+            .length_squared()
+            .max((to_p0 + self.e1).length_squared())
+            .max((to_p0 + self.e2).length_squared());
+        std::f32::consts::TAU * r2 < 0.99 * MIN_SPHERICAL_SOLID_ANGLE * (p - c).length_squared()
     }
 
     /// Whether no point of this light can send light to a receiver at p with geometric normal
@@ -282,6 +298,51 @@ mod tests {
         l.two_sided = false;
         assert_eq!(l.emitted(-Vec3::Z), Vec3::ZERO);
         assert_eq!(l.emitted(Vec3::Z), l.radiance);
+    }
+
+    #[test]
+    fn the_solid_angle_shortcut_only_skips_triangles_below_the_threshold() {
+        use rand_core::{Rng, SeedableRng};
+        let mut rng = rand_pcg::Pcg32::seed_from_u64(3);
+        let mut u = move || (rng.next_u32() >> 8) as f32 / (1u32 << 24) as f32;
+        let (mut skipped, mut near_threshold) = (0, 0);
+        for _ in 0..200_000 {
+            // Slivers and fat triangles, seen from 1 to 1000 sizes away.
+            let size = 0.01 + u();
+            let p0 = Vec3::new(u(), u(), u()) * 4.0;
+            let e1 = (Vec3::new(u(), u(), u()) - 0.5) * size;
+            let e2 = (Vec3::new(u(), u(), u()) - 0.5) * size * u();
+            let Some(n) = e1.cross(e2).try_normalize() else {
+                continue;
+            };
+            let light = TriangleLight {
+                p0,
+                e1,
+                e2,
+                normal: n,
+                area: 0.5 * e1.cross(e2).length(),
+                radiance: Vec3::ONE,
+                two_sided: true,
+                textured: false,
+                triangle: 0,
+            };
+            let dir = (Vec3::new(u(), u(), u()) - 0.5).normalize_or(Vec3::X);
+            let p = p0 + dir * size * 10f32.powf(3.0 * u());
+            let Some(view) = SphericalTriangle::new(p, light.vertices()) else {
+                continue;
+            };
+            let omega = view.solid_angle();
+            if light.solid_angle_surely_small(p) {
+                skipped += 1;
+                assert!(omega <= MIN_SPHERICAL_SOLID_ANGLE, "Ω {omega} from {p}");
+            }
+            near_threshold += (omega > 0.5 * MIN_SPHERICAL_SOLID_ANGLE
+                && omega <= MIN_SPHERICAL_SOLID_ANGLE) as u32;
+        }
+        assert!(
+            skipped > 20_000 && near_threshold > 1000,
+            "{skipped} {near_threshold}"
+        );
     }
 
     #[test]
