@@ -129,7 +129,8 @@ impl Lanes {
         let dot = |a: [__m256; 3], b: [__m256; 3]| {
             add(add(mul(a[0], b[0]), mul(a[1], b[1])), mul(a[2], b[2]))
         };
-        let n = [s(tri.n.x), s(tri.n.y), s(tri.n.z)];
+        let n = tri.normal();
+        let n = [s(n.x), s(n.y), s(n.z)];
         let e1 = [s(tri.e1.x), s(tri.e1.y), s(tri.e1.z)];
         let e2 = [s(tri.e2.x), s(tri.e2.y), s(tri.e2.z)];
         let c = [
