@@ -4,7 +4,8 @@
 //! matrix), with POSITION, NORMAL, TEXCOORD_0 and indices of any width. Every accessor is checked
 //! (type, range, finiteness, index bounds) before use, so a broken file gives an error naming the
 //! file and the element instead of a panic or garbage. Whatever the `gltf` crate computes unchecked
-//! from the file (GLB lengths, accessor and buffer-view extents, strides) is checked here first;
+//! from the file (GLB lengths, accessor and buffer-view extents, strides) is checked first
+//! (`gltf_checks.rs`); materials and textures are converted in `gltf_materials.rs`;
 //! `tests/fuzz_loader.rs` fuzzes all of this. Non-finite positions are an error (they
 //! signal a broken exporter, not a scene to be rendered partially); zero-area triangles are
 //! skipped and counted.
@@ -32,13 +33,15 @@ use gltf::mesh::Mode;
 
 use super::gltf_camera::choose_camera;
 pub use super::gltf_camera::CameraChoice;
+use super::gltf_checks::{
+    check_accessor, check_glb_header, check_unchecked_indices, out_of_range, per_vertex,
+};
 use super::gltf_extensions::{check_required_extensions, convert_light};
 use super::gltf_files::{read_uri, FileAccess};
 use super::memory::{declared_sizes, human, triangle_count, MemoryBudget, MemoryEstimate};
-use super::texture_decode::decode_image;
 use super::{
-    geometric_normal, LoadStats, Material, PunctualUnits, Scene, Texture, Triangle, UvTransform,
-    Wrap, NAMED_SKIPPED_PRIMITIVES,
+    geometric_normal, LoadStats, Material, PunctualUnits, Scene, Texture, Triangle,
+    NAMED_SKIPPED_PRIMITIVES,
 };
 
 /// Why a scene file could not be loaded; every variant names the file.
@@ -332,101 +335,7 @@ fn triangle_list(mode: Mode, indices: Vec<u32>) -> Vec<u32> {
     }
 }
 
-/// Checks what the `gltf` crate's GLB reader takes on trust, so that a truncated file or one
-/// whose header or chunks claim more bytes than it has gets a message saying so: the header's
-/// total length must cover the header (a smaller one underflows inside the crate) and fit in
-/// the bytes present, and the JSON chunk and the optional BIN chunk after it must fit in it.
-fn check_glb_header(bytes: &[u8]) -> Result<(), String> {
-    if !bytes.starts_with(b"glTF") {
-        return Ok(());
-    }
-    let word = |bytes: &[u8], at: usize| {
-        bytes
-            .get(at..at + 4)
-            .map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]))
-    };
-    let Some(length) = word(bytes, 8) else {
-        return Err(format!("GLB header is truncated ({} bytes)", bytes.len()));
-    };
-    if length < 12 {
-        return Err(format!(
-            "GLB header declares a total length of {length} bytes"
-        ));
-    }
-    let length = length as usize;
-    if length > bytes.len() {
-        return Err(format!(
-            "GLB header declares a total length of {length} bytes but the file has {} \
-             (truncated?)",
-            bytes.len()
-        ));
-    }
-    let bytes = &bytes[..length];
-    let mut at = 12;
-    for chunk in ["JSON", "BIN"] {
-        if chunk == "BIN" && at >= length {
-            break;
-        }
-        let (Some(chunk_length), Some(_)) = (word(bytes, at), word(bytes, at + 4)) else {
-            return Err(format!(
-                "GLB {chunk} chunk header at byte {at} is cut off by the end of the file \
-                 ({length} bytes)"
-            ));
-        };
-        let end = (at + 8).saturating_add(chunk_length as usize);
-        if end > length {
-            return Err(format!(
-                "GLB {chunk} chunk at byte {at} declares {chunk_length} bytes but only {} \
-                 remain in the file (truncated?)",
-                length.saturating_sub(at + 8)
-            ));
-        }
-        at = end;
-    }
-    Ok(())
-}
-
-/// The `gltf` crate's validator reads each primitive's POSITION accessor without a bounds check.
-fn check_unchecked_indices(root: &gltf::json::Root) -> Result<(), String> {
-    use gltf::json::validation::Checked;
-    for (m, mesh) in root.meshes.iter().enumerate() {
-        for (p, prim) in mesh.primitives.iter().enumerate() {
-            let position = Checked::Valid(gltf::json::mesh::Semantic::Positions);
-            if let Some(index) = prim.attributes.get(&position) {
-                if index.value() >= root.accessors.len() {
-                    return Err(format!(
-                        "meshes[{m}].primitives[{p}].attributes.POSITION: accessor {} does not \
-                         exist ({} accessors)",
-                        index.value(),
-                        root.accessors.len()
-                    ));
-                }
-            }
-        }
-    }
-    // `Image::source` unwraps these (found by the fuzzer).
-    for (i, image) in root.images.iter().enumerate() {
-        match (&image.buffer_view, &image.uri) {
-            (Some(view), _) if view.value() >= root.buffer_views.len() => {
-                return Err(format!(
-                    "images[{i}].bufferView: buffer view {} does not exist ({} buffer views)",
-                    view.value(),
-                    root.buffer_views.len()
-                ))
-            }
-            (Some(_), _) if image.mime_type.is_none() => {
-                return Err(format!(
-                    "images[{i}]: an image in a bufferView needs a mimeType"
-                ))
-            }
-            (None, None) => return Err(format!("images[{i}]: has neither uri nor bufferView")),
-            _ => {}
-        }
-    }
-    Ok(())
-}
-
-fn quoted(name: Option<&str>) -> String {
+pub(super) fn quoted(name: Option<&str>) -> String {
     name.map(|n| format!(" '{n}'")).unwrap_or_default()
 }
 
@@ -465,139 +374,23 @@ fn load_buffers(
     Ok(buffers)
 }
 
-struct Loader<'a> {
-    buffers: &'a [Vec<u8>],
+pub(super) struct Loader<'a> {
+    pub(super) buffers: &'a [Vec<u8>],
     /// Where external image files may be read.
-    files: FileAccess<'a>,
-    materials: Vec<Material>,
+    pub(super) files: FileAccess<'a>,
+    pub(super) materials: Vec<Material>,
     /// glTF material index (last slot: the default material) → index into `materials`.
-    material_map: Vec<Option<u32>>,
-    textures: Vec<Texture>,
+    pub(super) material_map: Vec<Option<u32>>,
+    pub(super) textures: Vec<Texture>,
     /// (glTF texture index, its reference's uv transform as bits) → index into `textures`.
-    texture_map: std::collections::HashMap<(usize, Option<[u32; 6]>), u32>,
+    pub(super) texture_map: std::collections::HashMap<(usize, Option<[u32; 6]>), u32>,
 }
 
 /// An error's element and message.
-type Located = (String, String);
+pub(super) type Located = (String, String);
 
 impl Loader<'_> {
     /// The scene material for a glTF material, converted (and its textures decoded) on first use.
-    fn material_index(&mut self, material: &gltf::Material) -> Result<u32, Located> {
-        let slot = material.index().unwrap_or(self.material_map.len() - 1);
-        if let Some(i) = self.material_map[slot] {
-            return Ok(i);
-        }
-        let mut m = convert_material(material);
-        let element = |what: &str| match material.index() {
-            Some(i) => format!("material {i}{} {what}", quoted(material.name())),
-            None => format!("default material {what}"),
-        };
-        let base = material.pbr_metallic_roughness().base_color_texture();
-        m.base_color_texture = self.texture_index(base, || element("baseColorTexture"))?;
-        if m.is_emissive() {
-            let emissive = material.emissive_texture();
-            m.emissive_texture = self.texture_index(emissive, || element("emissiveTexture"))?;
-        }
-        let i = self.materials.len() as u32;
-        self.materials.push(m);
-        self.material_map[slot] = Some(i);
-        Ok(i)
-    }
-
-    /// The scene texture for a material's texture reference, decoded on first use.
-    fn texture_index(
-        &mut self,
-        info: Option<gltf::texture::Info>,
-        element: impl Fn() -> String,
-    ) -> Result<Option<u32>, Located> {
-        let Some(info) = info else {
-            return Ok(None);
-        };
-        let transform = info.texture_transform().map(|t| {
-            UvTransform::from_offset_rotation_scale(
-                Vec2::from(t.offset()),
-                t.rotation(),
-                Vec2::from(t.scale()),
-            )
-        });
-        if transform.is_some_and(|t| !t.is_finite()) {
-            return Err((
-                element(),
-                "KHR_texture_transform gives a non-finite offset, rotation or scale".into(),
-            ));
-        }
-        // KHR_texture_transform's texCoord overrides the reference's.
-        let set = info
-            .texture_transform()
-            .and_then(|t| t.tex_coord())
-            .unwrap_or(info.tex_coord());
-        if set != 0 {
-            return Err((
-                element(),
-                format!("reads TEXCOORD_{set}; only TEXCOORD_0 is supported"),
-            ));
-        }
-        let texture = info.texture();
-        let key = (
-            texture.index(),
-            transform.map(|t| {
-                [t.x_axis, t.y_axis, t.offset]
-                    .map(|v| v.to_array().map(f32::to_bits))
-                    .concat()
-                    .try_into()
-                    .expect("six numbers")
-            }),
-        );
-        if let Some(&i) = self.texture_map.get(&key) {
-            return Ok(Some(i));
-        }
-        let image = texture.source();
-        let mut image_element = format!(
-            "image {}{} (texture {})",
-            image.index(),
-            quoted(image.name()),
-            texture.index()
-        );
-        let bytes = match image.source() {
-            gltf::image::Source::View { view, .. } => {
-                let data = self.buffers.get(view.buffer().index());
-                let range = view.offset()..view.offset().saturating_add(view.length());
-                let bytes = data.and_then(|d| d.get(range)).ok_or_else(|| {
-                    let message = format!(
-                        "buffer view {} (offset {}, length {}) extends past its buffer {}",
-                        view.index(),
-                        view.offset(),
-                        view.length(),
-                        view.buffer().index()
-                    );
-                    (image_element.clone(), message)
-                })?;
-                std::borrow::Cow::Borrowed(bytes)
-            }
-            gltf::image::Source::Uri { uri, .. } => {
-                if !uri.starts_with("data:") {
-                    image_element = format!("{image_element} '{uri}'");
-                }
-                let bytes =
-                    read_uri(uri, None, self.files).map_err(|m| (image_element.clone(), m))?;
-                std::borrow::Cow::Owned(bytes)
-            }
-        };
-        let decoded = decode_image(&bytes).map_err(|m| (image_element.clone(), m))?;
-        let sampler = texture.sampler();
-        let wrap = [
-            convert_wrap(sampler.wrap_s()),
-            convert_wrap(sampler.wrap_t()),
-        ];
-        let texture_out = Texture::new(decoded.width, decoded.height, decoded.texels, wrap)
-            .ok_or_else(|| (image_element, "texel count does not match its size".into()))?
-            .with_transform(transform);
-        let i = self.textures.len() as u32;
-        self.textures.push(texture_out);
-        self.texture_map.insert(key, i);
-        Ok(Some(i))
-    }
-
     fn read_primitive(
         &mut self,
         prim: &gltf::Primitive,
@@ -741,162 +534,5 @@ impl Loader<'_> {
             });
         }
         Ok(())
-    }
-}
-
-fn out_of_range(what: &str, acc: &gltf::Accessor) -> String {
-    format!(
-        "{what} (accessor {}): {} elements do not fit in its buffer view or buffer",
-        acc.index(),
-        acc.count()
-    )
-}
-
-/// A per-vertex attribute must have one entry per POSITION.
-fn per_vertex<T>(
-    what: &str,
-    acc: &gltf::Accessor,
-    values: Vec<T>,
-    vertices: usize,
-) -> Result<Vec<T>, String> {
-    if values.len() != vertices {
-        return Err(format!(
-            "{what} (accessor {}) has {} entries but POSITION has {vertices}",
-            acc.index(),
-            values.len()
-        ));
-    }
-    Ok(values)
-}
-
-fn check_accessor(
-    acc: &gltf::Accessor,
-    what: &str,
-    dims: &[Dimensions],
-    types: &[DataType],
-    buffers: &[Vec<u8>],
-) -> Result<(), String> {
-    if !dims.contains(&acc.dimensions()) || !types.contains(&acc.data_type()) {
-        return Err(format!(
-            "{what} (accessor {}) has type {:?} {:?}, expected one of {:?} {:?}",
-            acc.index(),
-            acc.dimensions(),
-            acc.data_type(),
-            dims,
-            types
-        ));
-    }
-    if acc.count() == 0 {
-        return Err(format!("{what} (accessor {}) is empty", acc.index()));
-    }
-    if acc.view().is_none() && acc.sparse().is_none() {
-        return Err(format!(
-            "{what} (accessor {}) has no buffer view",
-            acc.index()
-        ));
-    }
-    check_accessor_extent(acc, buffers)
-        .map_err(|m| format!("{what} (accessor {}): {m}", acc.index()))
-}
-
-/// An accessor without a buffer view (all zeros plus sparse values) may not have more elements
-/// than this: the count would otherwise be an allocation of any size the file asks for.
-const MAX_VIEWLESS_ELEMENTS: usize = 1 << 24;
-
-/// Checks, with overflow-checked arithmetic, that every element the `gltf` crate's reader will
-/// touch lies inside its buffer view and every view inside its buffer's data, and that strides
-/// are at least the element size. The crate computes these ranges unchecked (an overflow, or a
-/// stride smaller than the element, panics inside it), so this runs before any read.
-fn check_accessor_extent(acc: &gltf::Accessor, buffers: &[Vec<u8>]) -> Result<(), String> {
-    let size = acc.size();
-    if let Some(view) = acc.view() {
-        check_elements(&view, acc.offset(), acc.count(), size, buffers)?;
-    } else if acc.count() > MAX_VIEWLESS_ELEMENTS {
-        return Err(format!(
-            "{} elements without a buffer view (at most {MAX_VIEWLESS_ELEMENTS})",
-            acc.count()
-        ));
-    }
-    if let Some(sparse) = acc.sparse() {
-        let n = sparse.count();
-        if n == 0 || n > acc.count() {
-            return Err(format!("sparse count {n} is not in 1..={}", acc.count()));
-        }
-        let indices = sparse.indices();
-        let index_size = indices.index_type().size();
-        check_elements(&indices.view(), indices.offset(), n, index_size, buffers)
-            .map_err(|m| format!("sparse indices: {m}"))?;
-        let values = sparse.values();
-        check_elements(&values.view(), values.offset(), n, size, buffers)
-            .map_err(|m| format!("sparse values: {m}"))?;
-    }
-    Ok(())
-}
-
-/// `count` (≥ 1) elements of `size` bytes from `offset` in `view`, at the view's stride.
-fn check_elements(
-    view: &gltf::buffer::View,
-    offset: usize,
-    count: usize,
-    size: usize,
-    buffers: &[Vec<u8>],
-) -> Result<(), String> {
-    let present = buffers.get(view.buffer().index()).map_or(0, Vec::len);
-    let view_end = view.offset().checked_add(view.length());
-    if view_end.is_none_or(|end| end > present) {
-        return Err(format!(
-            "buffer view {} (offset {}, length {}) extends past the {present} bytes of buffer {}",
-            view.index(),
-            view.offset(),
-            view.length(),
-            view.buffer().index()
-        ));
-    }
-    let stride = view.stride().unwrap_or(size);
-    if stride < size {
-        return Err(format!(
-            "buffer view {} has stride {stride}, less than the element size {size}",
-            view.index()
-        ));
-    }
-    let end = count
-        .checked_sub(1)
-        .and_then(|n| n.checked_mul(stride))
-        .and_then(|n| n.checked_add(offset))
-        .and_then(|n| n.checked_add(size));
-    if end.is_none_or(|end| end > view.length()) {
-        return Err(format!(
-            "{count} elements of {size} bytes at offset {offset}, stride {stride} do not fit in \
-             buffer view {} ({} bytes)",
-            view.index(),
-            view.length()
-        ));
-    }
-    Ok(())
-}
-
-fn convert_wrap(mode: gltf::texture::WrappingMode) -> Wrap {
-    match mode {
-        gltf::texture::WrappingMode::Repeat => Wrap::Repeat,
-        gltf::texture::WrappingMode::ClampToEdge => Wrap::ClampToEdge,
-        gltf::texture::WrappingMode::MirroredRepeat => Wrap::MirroredRepeat,
-    }
-}
-
-/// The material's constant factors (its textures are added by the loader).
-fn convert_material(m: &gltf::Material) -> Material {
-    let pbr = m.pbr_metallic_roughness();
-    let [r, g, b, _] = pbr.base_color_factor();
-    let strength = m.emissive_strength().unwrap_or(1.0);
-    let specular = m.specular().map_or(1.0, |s| s.specular_factor());
-    Material {
-        base_color: Vec3::new(r, g, b).clamp(Vec3::ZERO, Vec3::ONE),
-        metallic: pbr.metallic_factor().clamp(0.0, 1.0),
-        roughness: pbr.roughness_factor().clamp(0.0, 1.0),
-        specular: specular.clamp(0.0, 1.0),
-        emission: (Vec3::from(m.emissive_factor()) * strength).max(Vec3::ZERO),
-        double_sided: m.double_sided(),
-        base_color_texture: None,
-        emissive_texture: None,
     }
 }

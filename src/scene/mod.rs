@@ -6,9 +6,11 @@
 
 mod camera;
 mod gltf_camera;
+mod gltf_checks;
 mod gltf_extensions;
 mod gltf_files;
 mod gltf_load;
+mod gltf_materials;
 pub mod memory;
 pub mod texture;
 pub mod texture_decode;
