@@ -31,7 +31,12 @@ impl BinWriter {
     }
 
     /// Adds a float accessor of `N`-vectors ("VEC2", "VEC3"), with min/max when `bounds` is set.
-    pub(super) fn floats<const N: usize>(&mut self, values: &[[f32; N]], kind: &str, bounds: bool) -> usize {
+    pub(super) fn floats<const N: usize>(
+        &mut self,
+        values: &[[f32; N]],
+        kind: &str,
+        bounds: bool,
+    ) -> usize {
         let bytes: Vec<u8> = values
             .iter()
             .flatten()

@@ -63,8 +63,7 @@ pub(crate) fn assert_matches(builder: &GltfBuilder, doc: &gltf::Document, blob: 
         assert_eq!(normals, want.normals);
         let indices: Option<Vec<u32>> = reader.read_indices().map(|i| i.into_u32().collect());
         assert_eq!(indices, want.indices);
-        let uvs: Option<Vec<[f32; 2]>> =
-            reader.read_tex_coords(0).map(|t| t.into_f32().collect());
+        let uvs: Option<Vec<[f32; 2]>> = reader.read_tex_coords(0).map(|t| t.into_f32().collect());
         assert_eq!(uvs, want.uvs);
     }
     for (mat, want) in doc.materials().zip(&builder.materials) {
