@@ -174,16 +174,21 @@ fn cosine_direction(n: Vec3, u1: f32, u2: f32) -> Vec3 {
     (x * t + y * b + z * n).normalize()
 }
 
+/// The scene's camera, or one framing its bounds.
+fn scene_camera(scene: &Scene) -> Camera {
+    let (lo, hi) = scene.bounds();
+    scene
+        .camera
+        .clone()
+        .unwrap_or_else(|| Camera::framing(lo, hi, 1.0))
+}
+
 /// Width of the image whose pixels each get `PACKET` camera rays.
 const PIXEL_SET_WIDTH: u32 = 64;
 
 /// `PACKET` jittered camera rays per pixel, a pixel's rays consecutive.
 fn record_pixels(scene: &Scene, seed: u64) -> RaySet {
-    let (lo, hi) = scene.bounds();
-    let camera = scene
-        .camera
-        .clone()
-        .unwrap_or_else(|| Camera::framing(lo, hi, 1.0));
+    let camera = scene_camera(scene);
     let (width, height) = camera.resolution(PIXEL_SET_WIDTH, None);
     let mut rng = Pcg32::seed_from_u64(seed);
     let mut set = RaySet::new("pixel_closest");
@@ -202,11 +207,7 @@ fn record_pixels(scene: &Scene, seed: u64) -> RaySet {
 /// Records the three ray sets of one frame: camera rays, and at every camera hit one shadow ray
 /// and one bounce ray.
 fn record(scene: &Scene, accel: &Accel, seed: u64) -> [RaySet; 3] {
-    let (lo, hi) = scene.bounds();
-    let camera = scene
-        .camera
-        .clone()
-        .unwrap_or_else(|| Camera::framing(lo, hi, 1.0));
+    let camera = scene_camera(scene);
     let (width, height) = camera.resolution(WIDTH, None);
     let emitters: Vec<usize> = (0..scene.triangles.len())
         .filter(|&i| scene.material_of(i).is_emissive())

@@ -11,6 +11,9 @@
 //! `fuzz_exr_briefly` runs a fixed number of mutations on every `cargo test`;
 //! `FUZZ_SECONDS=600 cargo test --release --test fuzz_exr -- --ignored --nocapture` runs longer.
 
+#[path = "common/corpus.rs"]
+mod corpus;
+
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::collections::BTreeMap;
 use std::panic::{catch_unwind, AssertUnwindSafe};
@@ -340,9 +343,5 @@ fn fuzz_exr_for_a_while() {
 #[test]
 #[ignore = "writes the seed corpus of the coverage-guided fuzzer to FUZZ_CORPUS_DIR"]
 fn write_seed_corpus() {
-    let dir = PathBuf::from(std::env::var("FUZZ_CORPUS_DIR").expect("FUZZ_CORPUS_DIR is set"));
-    std::fs::create_dir_all(&dir).unwrap();
-    for (i, input) in corpus().iter().enumerate() {
-        std::fs::write(dir.join(format!("seed-{i}.exr")), input).unwrap();
-    }
+    corpus::write_seed_corpus(&corpus(), ".exr");
 }

@@ -14,6 +14,9 @@
 //! (without `--release`, so the test profile's overflow checks are on). Each panic prints the
 //! seed and iteration and writes the input to `target/fuzz-crashes/`.
 
+#[path = "common/corpus.rs"]
+mod corpus;
+
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::collections::BTreeMap;
 use std::panic::{catch_unwind, AssertUnwindSafe};
@@ -758,9 +761,5 @@ fn fuzz_loader_for_a_while() {
 #[test]
 #[ignore = "writes the seed corpus of the coverage-guided fuzzer to FUZZ_CORPUS_DIR"]
 fn write_seed_corpus() {
-    let dir = PathBuf::from(std::env::var("FUZZ_CORPUS_DIR").expect("FUZZ_CORPUS_DIR is set"));
-    std::fs::create_dir_all(&dir).unwrap();
-    for (i, input) in corpus().iter().enumerate() {
-        std::fs::write(dir.join(format!("seed-{i}")), input).unwrap();
-    }
+    corpus::write_seed_corpus(&corpus(), "");
 }

@@ -402,18 +402,29 @@ mod tests {
         (a + b + c) / 3.0
     }
 
+    /// Uniform numbers in [0, 1) from a fixed seed.
+    fn uniforms(seed: u64) -> impl FnMut() -> f32 {
+        use rand_core::{Rng, SeedableRng};
+        let mut rng = rand_pcg::Pcg32::seed_from_u64(seed);
+        move || (rng.next_u32() >> 8) as f32 / (1u32 << 24) as f32
+    }
+
+    /// `count` random triangles of about `size` m, centred in the cube [0, 10]³.
+    fn triangle_soup(u: &mut impl FnMut() -> f32, count: usize, size: f32) -> Scene {
+        let tris = (0..count)
+            .map(|_| {
+                let c = Vec3::new(u(), u(), u()) * 10.0;
+                let p = [0, 1, 2].map(|_| c + (Vec3::new(u(), u(), u()) - Vec3::splat(0.5)) * size);
+                Triangle::flat(p, 0)
+            })
+            .collect();
+        Scene::new(tris, vec![Material::default()], None).unwrap()
+    }
+
     #[test]
     fn closest_hits_match_an_exhaustive_search_on_both_code_paths() {
-        use rand_core::{Rng, SeedableRng};
-        let mut rng = rand_pcg::Pcg32::seed_from_u64(11);
-        let mut u = move || (rng.next_u32() >> 8) as f32 / (1u32 << 24) as f32;
-        let mut tris = Vec::new();
-        for _ in 0..400 {
-            let c = Vec3::new(u(), u(), u()) * 10.0;
-            let p = [0, 1, 2].map(|_| c + Vec3::new(u(), u(), u()) - Vec3::splat(0.5));
-            tris.push(Triangle::flat(p, 0));
-        }
-        let scene = Scene::new(tris, vec![Material::default()], None).unwrap();
+        let mut u = uniforms(11);
+        let scene = triangle_soup(&mut u, 400, 1.0);
         let mut accel = Accel::build(&scene);
         let (mut hits, mut compared) = (0, 0);
         for _ in 0..2000 {
@@ -464,16 +475,8 @@ mod tests {
 
     #[test]
     fn packets_find_the_hits_of_single_rays() {
-        use rand_core::{Rng, SeedableRng};
-        let mut rng = rand_pcg::Pcg32::seed_from_u64(5);
-        let mut u = move || (rng.next_u32() >> 8) as f32 / (1u32 << 24) as f32;
-        let mut tris = Vec::new();
-        for _ in 0..3000 {
-            let c = Vec3::new(u(), u(), u()) * 10.0;
-            let p = [0, 1, 2].map(|_| c + (Vec3::new(u(), u(), u()) - Vec3::splat(0.5)) * 0.6);
-            tris.push(Triangle::flat(p, 0));
-        }
-        let scene = Scene::new(tris, vec![Material::default()], None).unwrap();
+        let mut u = uniforms(5);
+        let scene = triangle_soup(&mut u, 3000, 0.6);
         let accel = Accel::build(&scene);
         let mut hits = 0;
         for packet in 0..400 {
