@@ -122,7 +122,12 @@ pub(crate) fn assert_matches(label: &str, px: &PixelStats, stats: &RenderStats, 
 }
 
 /// As `assert_matches`, for a truth known to lie in [lo, hi].
-pub(crate) fn assert_within(label: &str, px: &PixelStats, stats: &RenderStats, (lo, hi): (f64, f64)) {
+pub(crate) fn assert_within(
+    label: &str,
+    px: &PixelStats,
+    stats: &RenderStats,
+    (lo, hi): (f64, f64),
+) {
     assert_eq!(
         stats.nan_samples + stats.inf_samples,
         0,
