@@ -1,0 +1,227 @@
+//! Node layout and bounds: sizes, degenerate input, quantised bounds that hold their lights,
+//! cone unions, the lane importance against the same bound written with angles, AVX2 and
+//! portable copies bit for bit.
+
+use super::*;
+
+#[test]
+fn nodes_are_32_and_384_bytes() {
+    assert_eq!(std::mem::size_of::<Node>(), 32);
+    assert_eq!(std::mem::size_of::<WideNode>(), 384);
+}
+
+#[test]
+fn degenerate_inputs_stay_finite() {
+    let point = LightBounds {
+        lo: Vec3::ONE,
+        hi: Vec3::ONE,
+        phi: 1e30,
+        w: Vec3::ZERO,
+        cos_theta_o: 1.0,
+        cos_theta_e: 0.0,
+        two_sided: false,
+    };
+    let tiny = Vec3::splat(1e-6);
+    let probes = [
+        (Vec3::ONE, Vec3::Z),
+        (Vec3::ONE, Vec3::ZERO),
+        (Vec3::ONE + tiny, -Vec3::Z),
+        (Vec3::ONE + Vec3::X * 1e7, Vec3::ZERO),
+        (Vec3::ZERO, Vec3::ZERO),
+    ];
+    for (p, n) in probes {
+        for b in [
+            point,
+            LightBounds {
+                hi: Vec3::ONE + tiny,
+                ..point
+            },
+        ] {
+            let i = importance(&b, p, n);
+            assert!(i.is_finite() && i > 0.0, "{p} {n}: {i}");
+        }
+    }
+    let (single, _) = LightBvh::build(&[point]);
+    assert_eq!(single.sample(Vec3::NAN, Vec3::Z, 0.5), None);
+    assert_eq!(single.pmf(Vec3::NAN, Vec3::Z, 0), 0.0);
+    // Excluded lights: zero or non-finite power or bounds.
+    let bad = [
+        LightBounds { phi: 0.0, ..point },
+        LightBounds {
+            phi: f32::NAN,
+            ..point
+        },
+        LightBounds {
+            lo: Vec3::NAN,
+            ..point
+        },
+        LightBounds {
+            phi: f32::INFINITY,
+            ..point
+        },
+    ];
+    let mut lights = bad.to_vec();
+    lights.push(point);
+    let (bvh, order) = LightBvh::build(&lights);
+    assert_eq!(order, vec![4]);
+    assert_eq!(bvh.sample(Vec3::ZERO, Vec3::ZERO, 0.3), Some((0, 1.0)));
+    assert_eq!(bvh.pmf(Vec3::ZERO, Vec3::ZERO, 1), 0.0);
+    let (empty, order) = LightBvh::build(&bad);
+    assert!(empty.is_empty() && order.is_empty() && empty.bytes() == 0);
+    assert_eq!(empty.sample(Vec3::ZERO, Vec3::Z, 0.5), None);
+    assert_eq!(empty.pmf(Vec3::ZERO, Vec3::Z, 0), 0.0);
+    // Many lights at one point: median splits.
+    let (same, _) = LightBvh::build(&vec![point; 1000]);
+    let mut rng = Rand::new(5);
+    check_frequencies(&same, Vec3::ZERO, Vec3::ONE.normalize(), 10_000, &mut rng);
+}
+
+#[test]
+fn quantised_nodes_hold_their_bounds() {
+    let mut rng = Rand::new(6);
+    let grid = Grid::new(Vec3::splat(-10.0), Vec3::splat(10.0));
+    for _ in 0..20_000 {
+        let (a, b) = (rng.point(-10.0, 10.0), rng.point(-10.0, 10.0));
+        let bounds = LightBounds {
+            lo: a.min(b),
+            hi: a.max(b),
+            phi: 1.0,
+            w: rng.unit(),
+            cos_theta_o: rng.range(-1.0, 1.0).max(rng.range(-1.0, 1.0)),
+            cos_theta_e: rng.range(0.0, 1.0),
+            two_sided: rng.f32() < 0.5,
+        };
+        let q = Node::default().with_bounds(&bounds, &grid).bounds(&grid);
+        assert!(q.lo.cmple(bounds.lo).all() && q.hi.cmpge(bounds.hi).all());
+        assert!(q.cos_theta_e <= bounds.cos_theta_e);
+        assert_eq!(q.two_sided, bounds.two_sided);
+        let theta = |c: f32| f64::from(c).acos();
+        let drift = angle_between(q.w.as_dvec3(), bounds.w.as_dvec3());
+        if q.cos_theta_o > -1.0 {
+            assert!(drift + theta(bounds.cos_theta_o) <= theta(q.cos_theta_o));
+        }
+        assert!(drift < 1e-4, "octahedral error {drift}");
+    }
+}
+
+#[test]
+fn cone_union_holds_both_cones() {
+    let mut rng = Rand::new(7);
+    for _ in 0..20_000 {
+        let a = (rng.unit(), rng.range(-1.0, 1.0).max(rng.range(0.5, 1.0)));
+        let b = (rng.unit(), rng.range(0.0, 1.0).max(rng.range(0.9, 1.0)));
+        let (w, cos) = cone_union(a, b);
+        let theta = |c: f32| f64::from(c).acos();
+        for (axis, c) in [a, b] {
+            let need = angle_between(w.as_dvec3(), axis.as_dvec3()) + theta(c);
+            assert!(cos <= -1.0 || need <= theta(cos), "{need} > {}", theta(cos));
+        }
+    }
+}
+
+/// The importance bound written with angles (acos, asin) in f64, for
+/// comparison with the lanes' (cos, sin) arithmetic; `None` near a threshold.
+fn importance_with_angles(b: &LightBounds, radius: f32, p: Vec3, n: Vec3) -> Option<f64> {
+    let centre = ((b.lo + b.hi) * 0.5).as_dvec3();
+    let (p, n) = (p.as_dvec3(), n.as_dvec3());
+    let (r, d) = (f64::from(radius), p.distance(centre));
+    if (d - r).abs() < 1e-3 * r.max(1e-3) {
+        return None;
+    }
+    let mut emitted = 1.0;
+    let mut received = 1.0;
+    if d > r {
+        let theta_b = (r / d).asin();
+        let theta_w = angle_between(b.w.as_dvec3(), p - centre);
+        let theta_w = if b.two_sided {
+            theta_w.min(std::f64::consts::PI - theta_w)
+        } else {
+            theta_w
+        };
+        let theta_o = f64::from(b.cos_theta_o).clamp(-1.0, 1.0).acos();
+        let theta_e = f64::from(b.cos_theta_e).clamp(-1.0, 1.0).acos();
+        let theta_p = (theta_w - theta_o).max(0.0) - theta_b;
+        let theta_p = theta_p.max(0.0);
+        if (theta_p - theta_e).abs() < 1e-3 {
+            return None;
+        }
+        emitted = if theta_p < theta_e {
+            theta_p.cos()
+        } else {
+            0.0
+        };
+        if n != DVec3::ZERO {
+            let theta_r = (angle_between(n, centre - p) - theta_b).max(0.0);
+            if (theta_r - std::f64::consts::FRAC_PI_2).abs() < 1e-3 {
+                return None;
+            }
+            received = theta_r.cos().max(0.0);
+        }
+    }
+    let d_sq = (d * d).max(r * r);
+    Some(f64::from(b.phi) * emitted * received / d_sq)
+}
+
+#[test]
+fn lane_importance_matches_the_bound_written_with_angles() {
+    let mut rng = Rand::new(10);
+    let scene = random_scene(&mut rng, 2000);
+    let (bvh, _) = LightBvh::build(&scene.bounds);
+    let mut compared = 0;
+    for (p, n) in receivers(&mut rng, &scene, 300) {
+        for node in &bvh.nodes {
+            let lanes = importances(node, p, n);
+            for k in (0..LANES).filter(|&k| node.first[k] != EMPTY_LANE) {
+                let phi = node.signed_phi[k];
+                let c = Vec3::new(node.centre[0][k], node.centre[1][k], node.centre[2][k]);
+                let w = Vec3::new(node.axis[0][k], node.axis[1][k], node.axis[2][k]);
+                let b = LightBounds {
+                    lo: c,
+                    hi: c,
+                    phi: phi.abs(),
+                    w,
+                    cos_theta_o: node.cos_o[k],
+                    cos_theta_e: node.cos_e[k],
+                    two_sided: phi < 0.0,
+                };
+                let Some(expected) = importance_with_angles(&b, node.radius[k], p, n) else {
+                    continue;
+                };
+                let got = f64::from(lanes[k]);
+                let tolerance = 1e-3 * expected + f64::from(f32::MIN_POSITIVE);
+                assert!(
+                    (got - expected).abs() <= tolerance || (expected == 0.0 && got > 0.0),
+                    "lane {k} at p {p} n {n}: {got} vs {expected}"
+                );
+                compared += usize::from(expected > 0.0);
+            }
+        }
+    }
+    println!("{compared} positive lane importances compared");
+    assert!(compared > 1000);
+}
+
+#[test]
+fn avx2_and_portable_copies_agree_bit_for_bit() {
+    let mut rng = Rand::new(11);
+    let scene = random_scene(&mut rng, 3000);
+    let (fast, _) = LightBvh::build(&scene.bounds);
+    let portable = LightBvh {
+        avx2: false,
+        ..fast.clone()
+    };
+    println!("AVX2 copy in use: {}", fast.avx2);
+    for (p, n) in receivers(&mut rng, &scene, 600) {
+        let u = rng.f64();
+        let (a, b) = (fast.sample(p, n, u), portable.sample(p, n, u));
+        assert_eq!(
+            a.map(|(l, q)| (l, q.to_bits())),
+            b.map(|(l, q)| (l, q.to_bits()))
+        );
+        let light = rng.below(fast.len());
+        assert_eq!(
+            fast.pmf(p, n, light).to_bits(),
+            portable.pmf(p, n, light).to_bits()
+        );
+    }
+}
