@@ -2,21 +2,15 @@
 //! the file and element, a documented non-zero exit code and no output file; the image does not
 //! depend on the thread count.
 
+#[path = "common/run.rs"]
+mod run;
+use manylights::cli::{EXIT_BAD_INPUT, EXIT_FAILURE};
+use run::manylights;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
 mod common;
 use common::{write_gltf, U32};
-
-const EXIT_FAILURE: i32 = 1;
-const EXIT_BAD_INPUT: i32 = 3;
-
-fn manylights(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_manylights"))
-        .args(args)
-        .output()
-        .expect("binary runs")
-}
 
 fn repo(path: &str) -> String {
     Path::new(env!("CARGO_MANIFEST_DIR"))

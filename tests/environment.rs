@@ -172,10 +172,8 @@ mod cli {
     use std::path::Path;
     use std::process::Command;
 
+    use manylights::cli::{EXIT_BAD_INPUT, EXIT_USAGE};
     use manylights::image::{write_exr, RgbImage};
-
-    const EXIT_USAGE: i32 = 2;
-    const EXIT_BAD_INPUT: i32 = 3;
 
     fn repo(path: &str) -> String {
         Path::new(env!("CARGO_MANIFEST_DIR"))

@@ -3,8 +3,12 @@
 //! refuses bad arguments with a usage error; every committed scene is exactly what `gen` writes
 //! and renders without NaN/Inf; the `extremes` probes match Lambert's polygon formula.
 
+#[path = "common/run.rs"]
+mod run;
+use manylights::cli::{EXIT_FAILURE, EXIT_USAGE};
+use run::manylights;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
 use glam::{DVec3, Vec3};
 use manylights::cli::gen::{build, SceneName};
@@ -15,18 +19,8 @@ use manylights::sampling::sampler::{Sampler, SamplerKind};
 use manylights::scene::{load_gltf, load_gltf_bytes, CameraChoice, Scene, Triangle};
 use manylights::select::SelectorKind;
 
-const EXIT_FAILURE: i32 = 1;
-const EXIT_USAGE: i32 = 2;
-
 fn repo(path: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join(path)
-}
-
-fn manylights(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_manylights"))
-        .args(args)
-        .output()
-        .expect("binary runs")
 }
 
 /// The GLB bytes of a generated scene.

@@ -2,15 +2,12 @@
 //! Cornell box: their files parse with the documented fields, references are cached and reused,
 //! and converge fails on a deliberately biased configuration.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+#[path = "common/run.rs"]
+mod run;
+use run::manylights;
 
-fn manylights(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_manylights"))
-        .args(args)
-        .output()
-        .expect("binary runs")
-}
+use std::path::{Path, PathBuf};
+use std::process::Output;
 
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()

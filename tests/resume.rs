@@ -4,6 +4,11 @@
 //! other options, a damaged one, a missing one, and a forgotten `--resume` are refused with
 //! messages saying what is wrong.
 
+#[path = "common/run.rs"]
+mod run;
+use manylights::cli::{EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_USAGE};
+use run::manylights;
+
 use std::fs;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
@@ -16,10 +21,6 @@ use manylights::measure::reference::{
 };
 use manylights::measure::SceneSetup;
 use manylights::sampling::sampler::SamplerKind;
-
-const EXIT_USAGE: i32 = 2;
-const EXIT_BAD_INPUT: i32 = 3;
-const EXIT_INTERRUPTED: i32 = 130;
 
 fn cornell() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.glb")
@@ -97,13 +98,6 @@ fn a_reference_stopped_at_a_pass_boundary_resumes_to_the_same_bits() {
         let part = render_reference_passes(&setup, &options, None, |_| Flow::Stop);
         assert!(bits(&setup, &options, &part) != bits(&setup, &options, &whole));
     }
-}
-
-fn manylights(args: &[String]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_manylights"))
-        .args(args)
-        .output()
-        .expect("binary runs")
 }
 
 fn spawn(args: &[String]) -> Child {

@@ -4,6 +4,10 @@
 //! plane, and measured variance ratios between M values on a many-light plane. Every pixel must
 //! lie within 5σ of its expected value (σ from the pixels' own sample variances).
 
+#[path = "common/run.rs"]
+mod run;
+use run::manylights;
+
 use std::path::Path;
 
 use glam::{DVec3, Mat4, Vec3};
@@ -357,13 +361,6 @@ fn variance_falls_with_m_on_many_lights() {
             "{strategy:?}: variance does not fall with M: {v:?}"
         );
     }
-}
-
-fn manylights(args: &[&str]) -> std::process::Output {
-    std::process::Command::new(env!("CARGO_BIN_EXE_manylights"))
-        .args(args)
-        .output()
-        .expect("binary runs")
 }
 
 #[test]

@@ -5,9 +5,11 @@
 //! are refused with exit 3 and a message naming the file, the element and the rule, before any
 //! output is written; `--allow-external-files DIR` admits the files inside DIR.
 
+#[path = "common/run.rs"]
+mod run;
+
 use std::fs;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use serde_json::{json, Value};
 
@@ -24,10 +26,7 @@ struct Run {
 }
 
 fn manylights(args: &[String]) -> Run {
-    let o = Command::new(env!("CARGO_BIN_EXE_manylights"))
-        .args(args)
-        .output()
-        .expect("binary runs");
+    let o = run::manylights(args);
     Run {
         code: o.status.code(),
         stderr: String::from_utf8_lossy(&o.stderr).into_owned(),

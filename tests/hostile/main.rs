@@ -5,6 +5,10 @@
 //! panic, and no output or temporary file (the output folder's listing is compared before and
 //! after every run).
 
+#[path = "../common/run.rs"]
+mod run;
+
+pub(crate) use manylights::cli::{EXIT_BAD_INPUT, EXIT_FAILURE, EXIT_USAGE};
 use std::fs;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -21,10 +25,6 @@ mod options;
 mod outputs;
 mod references;
 mod scenes;
-
-pub(crate) const EXIT_FAILURE: i32 = 1;
-pub(crate) const EXIT_USAGE: i32 = 2;
-pub(crate) const EXIT_BAD_INPUT: i32 = 3;
 
 /// Sparse files stand for huge inputs: 1 TiB (no machine allocates it, so reading one whole
 /// aborts instead of merely being slow), or 8 GiB where the file system refuses 1 TiB.
@@ -44,10 +44,7 @@ pub(crate) struct Run {
 }
 
 pub(crate) fn manylights<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> Run {
-    let o = Command::new(env!("CARGO_BIN_EXE_manylights"))
-        .args(args)
-        .output()
-        .expect("binary runs");
+    let o = run::manylights(args);
     Run {
         code: o.status.code(),
         stdout: String::from_utf8_lossy(&o.stdout).into_owned(),
