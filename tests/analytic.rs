@@ -3,6 +3,9 @@
 //! emitters. Each pixel's expected value is ρ·E(x)/π averaged over the pixel's footprint on the
 //! plane (8×8 midpoint quadrature), computed here independently of the renderer.
 
+#[path = "common/lambert.rs"]
+mod lambert;
+
 use glam::{DVec3, Mat4, Vec3};
 use manylights::integrator::{render, PreparedScene, RenderOptions, Strategy};
 use manylights::sampling::sampler::SamplerKind;
@@ -56,19 +59,6 @@ fn scene() -> Scene {
     Scene::new(tris, materials, Some(camera)).unwrap()
 }
 
-/// Irradiance at x (normal +Z) from a polygon of radiance L, wholly above the tangent plane:
-/// E = (L/2)·|Σ Θ_i (n · Γ_i)| with Θ_i the angle between u_i, u_{i+1} and Γ_i their unit cross.
-fn lambert_irradiance(x: DVec3, polygon: &[DVec3], radiance: f64) -> f64 {
-    let u: Vec<DVec3> = polygon.iter().map(|v| (*v - x).normalize()).collect();
-    let sum: f64 = (0..u.len())
-        .map(|i| {
-            let (a, b) = (u[i], u[(i + 1) % u.len()]);
-            a.dot(b).clamp(-1.0, 1.0).acos() * a.cross(b).normalize().z
-        })
-        .sum();
-    0.5 * radiance * sum.abs()
-}
-
 /// ρ/π · E at plane point (x, y), summed over the emissive quads.
 fn exitant_radiance(x: f64, y: f64) -> f64 {
     let p = DVec3::new(x, y, 0.0);
@@ -76,7 +66,7 @@ fn exitant_radiance(x: f64, y: f64) -> f64 {
         .iter()
         .map(|&(x0, y0, x1, y1, l)| {
             let poly = quad_corners(x0, y0, x1, y1, EMITTER_HEIGHT).map(|v| v.as_dvec3());
-            lambert_irradiance(p, &poly, l as f64)
+            lambert::irradiance(p, DVec3::Z, &poly, l as f64)
         })
         .sum::<f64>()
         * RHO as f64

@@ -4,6 +4,9 @@
 //! plane, and measured variance ratios between M values on a many-light plane. Every pixel must
 //! lie within 5σ of its expected value (σ from the pixels' own sample variances).
 
+#[path = "common/lambert.rs"]
+mod lambert;
+
 #[path = "common/run.rs"]
 mod run;
 use run::manylights;
@@ -103,19 +106,6 @@ fn scene(plane: Material, emitters: &[Emitter]) -> Scene {
     Scene::new(tris, materials, Some(camera)).unwrap()
 }
 
-/// Irradiance at x (normal +Z) from a polygon of radiance L on or above its tangent plane:
-/// E = (L/2)·|Σ Θ_i (n · Γ_i)|, Θ_i the angle between u_i, u_{i+1} and Γ_i their unit cross.
-fn lambert_irradiance(x: DVec3, polygon: &[DVec3], radiance: f64) -> f64 {
-    let u: Vec<DVec3> = polygon.iter().map(|v| (*v - x).normalize()).collect();
-    let sum: f64 = (0..u.len())
-        .map(|i| {
-            let (a, b) = (u[i], u[(i + 1) % u.len()]);
-            a.dot(b).clamp(-1.0, 1.0).acos() * a.cross(b).normalize().z
-        })
-        .sum();
-    0.5 * radiance * sum.abs()
-}
-
 /// ρ/π · E at plane point (x, y) from the emitters that face it, each clipped to z ≥ 0 (the part
 /// below is under the horizon). Only axis-aligned quads occur: clipping keeps a quad.
 fn lambert_radiance(emitters: &[Emitter], x: f64, y: f64) -> f64 {
@@ -129,7 +119,12 @@ fn lambert_radiance(emitters: &[Emitter], x: f64, y: f64) -> f64 {
                 return None; // the plane is behind this one-sided emitter
             }
             let clipped = c.map(|v| DVec3::new(v.x, v.y, v.z.max(0.0)));
-            Some(lambert_irradiance(p, &clipped, e.radiance as f64))
+            Some(lambert::irradiance(
+                p,
+                DVec3::Z,
+                &clipped,
+                e.radiance as f64,
+            ))
         })
         .sum();
     irradiance * RHO as f64 / std::f64::consts::PI

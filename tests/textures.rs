@@ -10,6 +10,9 @@
 //!   selection and BSDF sampling (Le read at the hit's uv), block by block within 5σ;
 //! - missing, corrupt and oversized images, and TEXCOORD_1, as errors naming the image.
 
+#[path = "common/lambert.rs"]
+mod lambert;
+
 use std::path::{Path, PathBuf};
 
 use base64::Engine;
@@ -359,26 +362,15 @@ fn triangle_power_matches_a_brute_force_average_over_its_texels() {
     );
 }
 
-/// Irradiance at x (normal +Z) from a polygon of radiance L wholly above its tangent plane:
-/// E = (L/2)·|Σ Θ_i (n · Γ_i)|.
-fn lambert_irradiance(x: DVec3, polygon: &[DVec3; 3]) -> f64 {
-    let u = polygon.map(|v| (v - x).normalize());
-    let sum: f64 = (0..3)
-        .map(|i| {
-            let (a, b) = (u[i], u[(i + 1) % 3]);
-            a.dot(b).clamp(-1.0, 1.0).acos() * a.cross(b).normalize().z
-        })
-        .sum();
-    0.5 * sum.abs()
-}
-
 /// ρ/π · Σ_triangles L_k · E_k at plane point (x, y), with L_k the texel under triangle k.
 fn plane_radiance(x: f64, y: f64) -> DVec3 {
     let p = DVec3::new(x, y, 0.0);
     let rho = srgb_decode(ALBEDO_CODE);
     emitter_triangles(Uvs::TexelCentres)
         .iter()
-        .map(|(tri, uv)| emission(uv[0], (CLAMP, CLAMP)) * lambert_irradiance(p, tri))
+        .map(|(tri, uv)| {
+            emission(uv[0], (CLAMP, CLAMP)) * lambert::irradiance(p, DVec3::Z, tri, 1.0)
+        })
         .sum::<DVec3>()
         * rho
         / std::f64::consts::PI

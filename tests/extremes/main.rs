@@ -7,6 +7,8 @@
 
 #[path = "../common/mod.rs"]
 mod common;
+#[path = "../common/lambert.rs"]
+mod lambert;
 
 mod accumulation;
 mod geometry;
@@ -16,7 +18,6 @@ mod samples;
 use glam::{DVec3, Mat4, Vec3};
 use manylights::film::PixelStats;
 use manylights::integrator::{render, PreparedScene, RenderOptions, RenderStats, Strategy};
-use manylights::lights::polygon::projected_solid_angle;
 use manylights::lights::Lights;
 use manylights::sampling::rng::PixelRng;
 use manylights::sampling::sampler::SamplerKind;
@@ -96,7 +97,8 @@ pub(crate) fn lambert_radiance(scene: &Scene, p: Vec3, n: Vec3) -> f64 {
         }
         let facing = t.geometric_normal().dot(p - t.positions[0]);
         if facing > 0.0 || m.double_sided {
-            e += m.emission.x as f64 * projected_solid_angle(p, n, t.positions);
+            let triangle = t.positions.map(|v| v.as_dvec3());
+            e += lambert::irradiance(p.as_dvec3(), n.as_dvec3(), &triangle, m.emission.x as f64);
         }
     }
     rho / std::f64::consts::PI * e
