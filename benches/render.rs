@@ -12,7 +12,6 @@ use manylights::accel::Accel;
 use manylights::integrator::{render, PreparedScene, RenderOptions, Strategy};
 use manylights::lights::Lights;
 use manylights::sampling::rng::PixelRng;
-use manylights::sampling::sampler::SamplerKind;
 use manylights::scene::{load_gltf, Scene};
 use manylights::select::{LightSelector, SelectorKind};
 
@@ -60,15 +59,7 @@ fn town_benches(c: &mut Criterion) {
         });
     }
     let camera = scene.camera.clone().expect("town has a camera");
-    let opts = RenderOptions {
-        width: 128,
-        height: 128,
-        spp: 1,
-        seed: 0,
-        sampler: SamplerKind::Independent,
-        first_sample: 0,
-        clamp: None,
-    };
+    let opts = RenderOptions::new(128, 128, 1, 0);
     for kind in [SelectorKind::Power, SelectorKind::Bvh] {
         let prepared = PreparedScene::new(scene.clone(), kind);
         let estimator = prepared.estimator(Strategy::LightArea, 1, 1);

@@ -8,7 +8,6 @@ mod lambert;
 
 use glam::{DVec3, Mat4, Vec3};
 use manylights::integrator::{render, PreparedScene, RenderOptions, Strategy};
-use manylights::sampling::sampler::SamplerKind;
 use manylights::scene::{Camera, Material, Scene, Triangle};
 use manylights::select::SelectorKind;
 
@@ -110,15 +109,7 @@ fn check_scene(
     let prepared = PreparedScene::new(scene, selector);
     let estimator = prepared.estimator(strategy, k, n);
     let camera = prepared.scene.camera.clone().unwrap();
-    let opts = RenderOptions {
-        width: SIZE,
-        height: SIZE,
-        spp,
-        seed: 11,
-        sampler: SamplerKind::Independent,
-        first_sample: 0,
-        clamp: None,
-    };
+    let opts = RenderOptions::new(SIZE, SIZE, spp, 11);
     let (film, stats) = render(&estimator, &camera, &opts);
     assert_eq!(stats.nan_samples + stats.inf_samples, 0);
 

@@ -11,7 +11,6 @@ use base64::Engine;
 use glam::{Vec2, Vec3};
 use manylights::integrator::{render, PreparedScene, RenderOptions, Strategy};
 use manylights::lights::Lights;
-use manylights::sampling::sampler::SamplerKind;
 use manylights::scene::{load_gltf, CameraChoice, LoadError, Projection, PunctualUnits};
 use manylights::select::SelectorKind;
 
@@ -103,15 +102,7 @@ fn render_pixels(path: &Path, size: u32, spp: u32) -> Vec<(f64, f64)> {
     let camera = scene.camera.clone().unwrap();
     let prepared = PreparedScene::new(scene, SelectorKind::Bvh);
     let estimator = prepared.estimator(Strategy::Mis, 1, 1);
-    let opts = RenderOptions {
-        width: size,
-        height: size,
-        spp,
-        seed: 7,
-        sampler: SamplerKind::Independent,
-        first_sample: 0,
-        clamp: None,
-    };
+    let opts = RenderOptions::new(size, size, spp, 7);
     let (film, _) = render(&estimator, &camera, &opts);
     let means = film.mean_rgb();
     let variances = film.variance_of_mean_rgb();

@@ -14,7 +14,6 @@ use manylights::gen::sky;
 use manylights::image::RgbImage;
 use manylights::integrator::{render, PreparedScene, RenderOptions, Strategy};
 use manylights::lights::EnvironmentMap;
-use manylights::sampling::sampler::SamplerKind;
 use manylights::scene::{Camera, Material, Scene, Triangle};
 use manylights::select::SelectorKind;
 
@@ -73,15 +72,7 @@ fn check(env: EnvironmentMap, expected: DVec3, selector: SelectorKind, strategy:
     assert_eq!(prepared.lights.len(), 2);
     let estimator = prepared.estimator(strategy, 1, 1);
     let camera = prepared.scene.camera.clone().unwrap();
-    let opts = RenderOptions {
-        width: SIZE,
-        height: SIZE,
-        spp: 64,
-        seed: 3,
-        clamp: None,
-        sampler: SamplerKind::Independent,
-        first_sample: 0,
-    };
+    let opts = RenderOptions::new(SIZE, SIZE, 64, 3);
     let (film, stats) = render(&estimator, &camera, &opts);
     assert_eq!(stats.nan_samples + stats.inf_samples, 0);
     let pixels = film.pixels.len() as f64;

@@ -342,15 +342,7 @@ fn committed_scenes_render_without_nan_or_inf() {
         ] {
             let prepared = PreparedScene::new(scene.clone(), selector);
             let estimator = prepared.estimator(strategy, 2, 1);
-            let opts = RenderOptions {
-                width: 24,
-                height: 16,
-                spp: 4,
-                seed: 5,
-                clamp: None,
-                sampler: SamplerKind::Independent,
-                first_sample: 0,
-            };
+            let opts = RenderOptions::new(24, 16, 4, 5);
             let (film, stats) = render(&estimator, &camera, &opts);
             assert_eq!(
                 stats.nan_samples + stats.inf_samples,

@@ -4,7 +4,6 @@
 use glam::{Mat4, Vec3};
 use manylights::accel::Accel;
 use manylights::integrator::{render, PreparedScene, RenderOptions, Strategy};
-use manylights::sampling::sampler::SamplerKind;
 use manylights::scene::{Camera, Material, Scene, Triangle};
 use manylights::select::SelectorKind;
 
@@ -37,15 +36,7 @@ fn closed_box(lo: Vec3, hi: Vec3, m: u32) -> Vec<Triangle> {
 fn render_scene(scene: &Scene, strategy: Strategy, spp: u32) -> manylights::film::Film {
     let prepared = PreparedScene::new(scene.clone(), SelectorKind::Power);
     let estimator = prepared.estimator(strategy, 2, 2);
-    let opts = RenderOptions {
-        width: 24,
-        height: 24,
-        spp,
-        seed: 3,
-        sampler: SamplerKind::Independent,
-        first_sample: 0,
-        clamp: None,
-    };
+    let opts = RenderOptions::new(24, 24, spp, 3);
     render(&estimator, scene.camera.as_ref().unwrap(), &opts).0
 }
 

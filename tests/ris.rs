@@ -16,7 +16,6 @@ use std::path::Path;
 use glam::{DVec3, Mat4, Vec3};
 use manylights::film::Film;
 use manylights::integrator::{render, PreparedScene, RenderOptions, Strategy};
-use manylights::sampling::sampler::SamplerKind;
 use manylights::scene::{Camera, Material, Scene, Triangle};
 use manylights::select::SelectorKind;
 
@@ -160,15 +159,7 @@ fn render_film(
     let prepared = PreparedScene::new(scene, selector);
     let estimator = prepared.estimator(strategy, 1, 1).with_candidates(m);
     let camera = prepared.scene.camera.clone().unwrap();
-    let opts = RenderOptions {
-        width: SIZE,
-        height: SIZE,
-        spp,
-        seed,
-        sampler: SamplerKind::Independent,
-        first_sample: 0,
-        clamp: None,
-    };
+    let opts = RenderOptions::new(SIZE, SIZE, spp, seed);
     let (film, stats) = render(&estimator, &camera, &opts);
     assert_eq!(stats.nan_samples + stats.inf_samples, 0);
     film

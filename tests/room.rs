@@ -15,7 +15,6 @@ use glam::Vec3;
 use manylights::color::luminance;
 use manylights::integrator::{render, PreparedScene, RenderOptions, Strategy};
 use manylights::lights::{Light, Lights};
-use manylights::sampling::sampler::SamplerKind;
 use manylights::scene::{load_gltf, CameraChoice, PunctualKind, PunctualUnits, Scene};
 use manylights::select::SelectorKind;
 
@@ -171,15 +170,7 @@ fn mean_image(scene: Scene) -> (f64, f64) {
     let camera = scene.camera.clone().unwrap();
     let prepared = PreparedScene::new(scene, SelectorKind::Bvh);
     let estimator = prepared.estimator(Strategy::Mis, 1, 1);
-    let opts = RenderOptions {
-        width: 32,
-        height: 24,
-        spp: 16,
-        seed: 7,
-        clamp: None,
-        sampler: SamplerKind::Independent,
-        first_sample: 0,
-    };
+    let opts = RenderOptions::new(32, 24, 16, 7);
     let (film, _) = render(&estimator, &camera, &opts);
     let n = film.pixels.len() as f64;
     let mean = film.pixels.iter().map(|p| p.mean.y).sum::<f64>() / n;
@@ -244,15 +235,7 @@ fn room_sunlit_planes_match_lambert_with_the_script_sun() {
     let camera = scene.camera.clone().unwrap();
     let prepared = PreparedScene::new(scene, SelectorKind::Power);
     let estimator = prepared.estimator(Strategy::LightArea, 1, 1);
-    let opts = RenderOptions {
-        width: 64,
-        height: 48,
-        spp: 8,
-        seed: 3,
-        clamp: None,
-        sampler: SamplerKind::Independent,
-        first_sample: 0,
-    };
+    let opts = RenderOptions::new(64, 48, 8, 3);
     let (film, _) = render(&estimator, &camera, &opts);
     let mut seen = [0usize; 3];
     for p in film

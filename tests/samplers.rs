@@ -118,13 +118,8 @@ fn measure(prepared: &PreparedScene, expected: &[f64], sampler: SamplerKind) -> 
         let (mut mses, mut means) = (Vec::new(), Vec::new());
         for seed in 0..SEEDS {
             let opts = RenderOptions {
-                width: SIZE,
-                height: SIZE,
-                spp,
-                seed: derive_seed(level as u64, seed),
                 sampler,
-                first_sample: 0,
-                clamp: None,
+                ..RenderOptions::new(SIZE, SIZE, spp, derive_seed(level as u64, seed))
             };
             let (film, stats) = render(&estimator, &camera, &opts);
             assert_eq!(stats.nan_samples + stats.inf_samples, 0);

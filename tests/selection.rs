@@ -7,7 +7,6 @@
 use manylights::film::Film;
 use manylights::gen::generate;
 use manylights::integrator::{render, PreparedScene, RenderOptions, Strategy};
-use manylights::sampling::sampler::SamplerKind;
 use manylights::scene::{load_gltf, CameraChoice, Scene};
 use manylights::select::SelectorKind;
 
@@ -24,15 +23,7 @@ fn town() -> Scene {
 fn render_with(scene: &Scene, kind: SelectorKind, strategy: Strategy, k: u32, spp: u32) -> Film {
     let prepared = PreparedScene::new(scene.clone(), kind);
     let estimator = prepared.estimator(strategy, k, 1);
-    let opts = RenderOptions {
-        width: SIZE,
-        height: SIZE,
-        spp,
-        seed: kind as u64 * 7 + 1,
-        sampler: SamplerKind::Independent,
-        first_sample: 0,
-        clamp: None,
-    };
+    let opts = RenderOptions::new(SIZE, SIZE, spp, kind as u64 * 7 + 1);
     let (film, stats) = render(&estimator, scene.camera.as_ref().unwrap(), &opts);
     assert_eq!(
         stats.nan_samples + stats.inf_samples,

@@ -20,7 +20,6 @@ use glam::{DVec3, Vec2};
 use manylights::color::luminance;
 use manylights::integrator::{render, PreparedScene, RenderOptions, Strategy};
 use manylights::lights::{Light, Lights};
-use manylights::sampling::sampler::SamplerKind;
 use manylights::scene::{load_gltf, CameraChoice, LoadError, Scene};
 use manylights::select::SelectorKind;
 use serde_json::json;
@@ -400,15 +399,7 @@ fn render_scene(
     let prepared = PreparedScene::new(scene.clone(), selector);
     let estimator = prepared.estimator(strategy, 1, 1);
     let camera = prepared.scene.camera.clone().unwrap();
-    let opts = RenderOptions {
-        width: SIZE,
-        height: SIZE,
-        spp,
-        seed: 5,
-        clamp: None,
-        sampler: SamplerKind::Independent,
-        first_sample: 0,
-    };
+    let opts = RenderOptions::new(SIZE, SIZE, spp, 5);
     let (film, stats) = render(&estimator, &camera, &opts);
     assert_eq!(stats.nan_samples + stats.inf_samples, 0);
     film

@@ -30,6 +30,22 @@ pub struct RenderOptions {
     pub clamp: Option<f32>,
 }
 
+impl RenderOptions {
+    /// A `width` × `height` render of `spp` independent samples per pixel from `seed`, starting
+    /// at each pixel's first sample, unclamped: change the other fields with struct update syntax.
+    pub fn new(width: u32, height: u32, spp: u32, seed: u64) -> RenderOptions {
+        RenderOptions {
+            width,
+            height,
+            spp,
+            seed,
+            sampler: SamplerKind::Independent,
+            first_sample: 0,
+            clamp: None,
+        }
+    }
+}
+
 /// A camera sample is a firefly when its luminance exceeds this multiple of its pixel's mean
 /// luminance over the render.
 pub const FIREFLY_FACTOR: f64 = 100.0;

@@ -163,15 +163,7 @@ fn degenerate_triangles_in_a_file_are_skipped_counted_and_render_finite() {
     let camera = look_at(Vec3::new(0.3, 0.3, 2.0), Vec3::new(0.3, 0.3, 0.0), 1.2);
     for strategy in [Strategy::LightSolidAngle, Strategy::Mis] {
         let estimator = prepared.estimator(strategy, 1, 1);
-        let opts = RenderOptions {
-            width: 16,
-            height: 16,
-            spp: 16,
-            seed: 1,
-            clamp: None,
-            sampler: SamplerKind::Independent,
-            first_sample: 0,
-        };
+        let opts = RenderOptions::new(16, 16, 16, 1);
         let (film, stats) = render(&estimator, &camera, &opts);
         assert_eq!(stats.nan_samples + stats.inf_samples, 0);
         assert!(film.image_mean() > 0.0 && film.image_mean().is_finite());

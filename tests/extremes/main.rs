@@ -20,7 +20,6 @@ use manylights::film::PixelStats;
 use manylights::integrator::{render, PreparedScene, RenderOptions, RenderStats, Strategy};
 use manylights::lights::Lights;
 use manylights::sampling::rng::PixelRng;
-use manylights::sampling::sampler::SamplerKind;
 use manylights::scene::{load_gltf, Camera, CameraChoice, Material, Scene, Triangle};
 use manylights::select::{oracle, LightSelector, SelectorKind, ShadingContext};
 
@@ -72,15 +71,7 @@ pub(crate) fn probe(
 ) -> (PixelStats, RenderStats) {
     let prepared = PreparedScene::new(scene.clone(), selector);
     let estimator = prepared.estimator(strategy, 1, 1);
-    let opts = RenderOptions {
-        width: 1,
-        height: 1,
-        spp,
-        seed: 17,
-        clamp: None,
-        sampler: SamplerKind::Independent,
-        first_sample: 0,
-    };
+    let opts = RenderOptions::new(1, 1, spp, 17);
     let (film, stats) = render(&estimator, &look_at(eye, target, 1e-5), &opts);
     (film.pixels[0], stats)
 }

@@ -134,15 +134,7 @@ fn fireflies_are_counted_where_a_rare_light_dominates_and_never_in_a_constant_sc
     let prepared = PreparedScene::new(scene, SelectorKind::Uniform);
     let estimator = prepared.estimator(Strategy::LightArea, 1, 1);
     let camera = look_at(Vec3::new(0.0, 0.0, 0.5), Vec3::ZERO, 0.01);
-    let opts = RenderOptions {
-        width: 4,
-        height: 4,
-        spp: 1024,
-        seed: 5,
-        clamp: None,
-        sampler: SamplerKind::Independent,
-        first_sample: 0,
-    };
+    let opts = RenderOptions::new(4, 4, 1024, 5);
     let (film, stats) = render(&estimator, &camera, &opts);
     let n = stats.camera_samples as f64;
     let p = 1.0 / 1001.0;
