@@ -1,37 +1,15 @@
 //! Shadow rays: no light leaks into a closed box from emitters pressed against its outside, and
 //! a surface never shadows itself (no acne), even at grazing angles and extreme scales.
 
+#[path = "common/shapes.rs"]
+mod shapes;
+use shapes::{closed_box, quad};
+
 use glam::{Mat4, Vec3};
 use manylights::accel::Accel;
 use manylights::integrator::{render, PreparedScene, RenderOptions, Strategy};
-use manylights::scene::{Camera, Material, Scene, Triangle};
+use manylights::scene::{Camera, Material, Scene};
 use manylights::select::SelectorKind;
-
-/// Two triangles of the quad a, b, c, d (counter-clockwise = front).
-fn quad(a: Vec3, b: Vec3, c: Vec3, d: Vec3, m: u32) -> [Triangle; 2] {
-    [Triangle::flat([a, b, c], m), Triangle::flat([a, c, d], m)]
-}
-
-/// The six faces of the box lo..hi, fronts facing inward.
-fn closed_box(lo: Vec3, hi: Vec3, m: u32) -> Vec<Triangle> {
-    let p = |x: bool, y: bool, z: bool| {
-        Vec3::new(
-            if x { hi.x } else { lo.x },
-            if y { hi.y } else { lo.y },
-            if z { hi.z } else { lo.z },
-        )
-    };
-    let (f, t) = (false, true);
-    [
-        quad(p(f, f, f), p(t, f, f), p(t, f, t), p(f, f, t), m), // floor, +Y
-        quad(p(f, t, f), p(f, t, t), p(t, t, t), p(t, t, f), m), // ceiling, −Y
-        quad(p(f, f, f), p(f, f, t), p(f, t, t), p(f, t, f), m), // x = lo, +X
-        quad(p(t, f, f), p(t, t, f), p(t, t, t), p(t, f, t), m), // x = hi, −X
-        quad(p(f, f, f), p(f, t, f), p(t, t, f), p(t, f, f), m), // z = lo, +Z
-        quad(p(f, f, t), p(t, f, t), p(t, t, t), p(f, t, t), m), // z = hi, −Z
-    ]
-    .concat()
-}
 
 fn render_scene(scene: &Scene, strategy: Strategy, spp: u32) -> manylights::film::Film {
     let prepared = PreparedScene::new(scene.clone(), SelectorKind::Power);

@@ -276,27 +276,6 @@ fn scaled(scene: &Scene, s: f32) -> Scene {
     Scene::new(tris, scene.materials.clone(), None).unwrap()
 }
 
-/// The six faces of the box lo..hi, fronts facing inward.
-fn closed_box(lo: Vec3, hi: Vec3, m: u32) -> Vec<Triangle> {
-    let p = |x: bool, y: bool, z: bool| {
-        Vec3::new(
-            if x { hi.x } else { lo.x },
-            if y { hi.y } else { lo.y },
-            if z { hi.z } else { lo.z },
-        )
-    };
-    let (f, t) = (false, true);
-    [
-        quad(p(f, f, f), p(f, t, f), p(t, t, f), p(t, f, f), m), // z = lo, +Z (floor)
-        quad(p(f, f, t), p(t, f, t), p(t, t, t), p(f, t, t), m), // z = hi, −Z
-        quad(p(f, f, f), p(f, f, t), p(f, t, t), p(f, t, f), m), // x = lo, +X
-        quad(p(t, f, f), p(t, t, f), p(t, t, t), p(t, f, t), m), // x = hi, −X
-        quad(p(f, f, f), p(t, f, f), p(t, f, t), p(f, f, t), m), // y = lo, +Y
-        quad(p(f, t, f), p(f, t, t), p(t, t, t), p(t, t, f), m), // y = hi, −Y
-    ]
-    .concat()
-}
-
 #[test]
 fn tenth_of_a_millimetre_scene_matches_lambert_without_leaks_or_self_shadowing() {
     // The 1 m box below, scaled to 1e-4 m: a ceiling light inside, and a bright two-sided

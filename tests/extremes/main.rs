@@ -9,6 +9,9 @@
 mod common;
 #[path = "../common/lambert.rs"]
 mod lambert;
+#[path = "../common/shapes.rs"]
+mod shapes;
+pub(crate) use shapes::{closed_box, quad};
 
 mod accumulation;
 mod geometry;
@@ -24,11 +27,6 @@ use manylights::scene::{load_gltf, Camera, CameraChoice, Material, Scene, Triang
 use manylights::select::{oracle, LightSelector, SelectorKind, ShadingContext};
 
 pub(crate) const RHO: f32 = 0.5;
-
-/// Two triangles of the quad a, b, c, d (counter-clockwise seen from the front).
-pub(crate) fn quad(a: Vec3, b: Vec3, c: Vec3, d: Vec3, m: u32) -> [Triangle; 2] {
-    [Triangle::flat([a, b, c], m), Triangle::flat([a, c, d], m)]
-}
 
 /// A horizontal square of half-size `h` centred at `c`; `up` picks the front face (+Z or −Z).
 pub(crate) fn square(c: Vec3, h: f32, up: bool, m: u32) -> [Triangle; 2] {
