@@ -6,7 +6,7 @@
 //! file and the element instead of a panic or garbage. Whatever the `gltf` crate computes unchecked
 //! from the file (GLB lengths, accessor and buffer-view extents, strides) is checked first
 //! (`gltf_checks.rs`); materials and textures are converted in `gltf_materials.rs`;
-//! `tests/fuzz_loader.rs` fuzzes all of this. Non-finite positions are an error (they
+//! `tests/fuzz_loader/` fuzzes all of this. Non-finite positions are an error (they
 //! signal a broken exporter, not a scene to be rendered partially); zero-area triangles are
 //! skipped and counted.
 //!
