@@ -29,6 +29,18 @@ pub struct RgbImage {
     pub pixels: Vec<[f32; 3]>,
 }
 
+impl RgbImage {
+    /// A one-row image of `pixels` (test fixtures).
+    #[cfg(test)]
+    pub(crate) fn row(pixels: Vec<[f32; 3]>) -> RgbImage {
+        RgbImage {
+            width: pixels.len(),
+            height: 1,
+            pixels,
+        }
+    }
+}
+
 /// Checks `pixels.len() == width · height` and a non-empty size.
 pub(crate) fn check_image(image: &RgbImage, what: &str) -> anyhow::Result<()> {
     ensure!(

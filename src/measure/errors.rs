@@ -260,18 +260,10 @@ impl Moments {
 mod tests {
     use super::*;
 
-    fn image(pixels: Vec<[f32; 3]>) -> RgbImage {
-        RgbImage {
-            width: pixels.len(),
-            height: 1,
-            pixels,
-        }
-    }
-
     #[test]
     fn regions_and_correction_match_hand_computed_values() {
-        let reference = image(vec![[1.0, 1.0, 1.0], [0.0, 0.0, 0.0]]);
-        let variance = image(vec![[0.01, 0.01, 0.01], [0.0, 0.0, 0.0]]);
+        let reference = RgbImage::row(vec![[1.0, 1.0, 1.0], [0.0, 0.0, 0.0]]);
+        let variance = RgbImage::row(vec![[0.01, 0.01, 0.01], [0.0, 0.0, 0.0]]);
         let lit = [true, false];
         let against = Against {
             mean: &reference,
@@ -279,7 +271,10 @@ mod tests {
             lit: Some(&lit),
         };
         let mut acc = ErrorAccumulator::new(2);
-        let f = acc.add(&image(vec![[1.5, 1.0, 1.0], [0.0, 0.0, 3.0]]), &against);
+        let f = acc.add(
+            &RgbImage::row(vec![[1.5, 1.0, 1.0], [0.0, 0.0, 3.0]]),
+            &against,
+        );
         // All: squared errors 0.25 and 9 over 6 values; lit: 0.25 over 3.
         assert!((f.all.0 - 9.25 / 6.0).abs() < 1e-12);
         assert!((f.lit.unwrap().0 - 0.25 / 3.0).abs() < 1e-12);
@@ -324,7 +319,7 @@ mod tests {
 
     #[test]
     fn no_mask_or_no_lit_pixel_gives_no_lit_figures() {
-        let reference = image(vec![[1.0; 3]]);
+        let reference = RgbImage::row(vec![[1.0; 3]]);
         let none = [false];
         for lit in [None, Some(&none[..])] {
             let against = Against {

@@ -47,18 +47,10 @@ pub fn compare(image: &RgbImage, reference: &RgbImage) -> Option<ImageError> {
 mod tests {
     use super::*;
 
-    fn image(pixels: Vec<[f32; 3]>) -> RgbImage {
-        RgbImage {
-            width: pixels.len(),
-            height: 1,
-            pixels,
-        }
-    }
-
     #[test]
     fn metrics_match_hand_computed_values() {
-        let reference = image(vec![[1.0, 0.0, 0.5], [0.0, 0.0, 0.0]]);
-        let test = image(vec![[1.5, 0.0, 0.5], [0.0, 0.1, 0.0]]);
+        let reference = RgbImage::row(vec![[1.0, 0.0, 0.5], [0.0, 0.0, 0.0]]);
+        let test = RgbImage::row(vec![[1.5, 0.0, 0.5], [0.0, 0.1, 0.0]]);
         let e = compare(&test, &reference).unwrap();
         // Squared errors 0.25 and 0.01 over 6 values.
         assert!((e.mse - 0.26 / 6.0).abs() < 1e-7);
@@ -66,7 +58,7 @@ mod tests {
         assert!((e.relmse - (0.25 / 1.01 + 1.0) / 6.0).abs() < 1e-7);
         assert!((e.max_abs - 0.5).abs() < 1e-7);
         assert!((e.psnr - (-10.0 * (0.26f64 / 6.0).log10())).abs() < 1e-5);
-        assert!(compare(&test, &image(vec![[0.0; 3]])).is_none());
+        assert!(compare(&test, &RgbImage::row(vec![[0.0; 3]])).is_none());
         assert_eq!(compare(&reference, &reference).unwrap().mse, 0.0);
     }
 }
