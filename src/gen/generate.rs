@@ -28,6 +28,7 @@ use rand_core::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
 
 use super::gltf_write::{look_at_rotation, GltfBuilder, Material, NodeTransform};
+use super::mesh::{add_object, QuadMesh};
 
 /// Builds a 2 m Cornell-like box: floor at y = 0, ceiling at y = 2, walls at
 /// x = ±1 (red left, green right), back wall at z = −1, open towards +z where
@@ -198,24 +199,6 @@ fn cornell_box(
     add_object(b, name, &cube, material, transform)
 }
 
-/// Adds a mesh with normals and indices plus a node showing it; returns the node.
-fn add_object(
-    b: &mut GltfBuilder,
-    name: &str,
-    mesh: &QuadMesh,
-    material: usize,
-    transform: NodeTransform,
-) -> usize {
-    let m = b.add_mesh(
-        name,
-        &mesh.positions,
-        Some(&mesh.normals),
-        Some(&mesh.indices),
-        material,
-    );
-    b.add_node(name, Some(m), None, transform)
-}
-
 /// Adds a square-aspect perspective camera at `eye` looking at `target`.
 fn add_camera(b: &mut GltfBuilder, eye: [f32; 3], target: [f32; 3], yfov_degrees: f32) {
     add_camera_with_aspect(b, eye, target, yfov_degrees, 1.0);
@@ -237,65 +220,6 @@ fn add_camera_with_aspect(
         scale: [1.0; 3],
     };
     b.add_node("camera", None, Some(camera), transform);
-}
-
-/// Indexed quads with flat per-vertex normals.
-#[derive(Default)]
-struct QuadMesh {
-    positions: Vec<[f32; 3]>,
-    normals: Vec<[f32; 3]>,
-    indices: Vec<u32>,
-}
-
-impl QuadMesh {
-    /// Adds the quad centred at `c` with half-edge vectors `u` and `v`; its
-    /// front face (counter-clockwise winding) faces along `u × v`.
-    fn quad(&mut self, c: Vec3, u: Vec3, v: Vec3) {
-        let base = u32::try_from(self.positions.len()).expect("mesh too large");
-        let n = u.cross(v).normalize().to_array();
-        for p in [c - u - v, c + u - v, c + u + v, c - u + v] {
-            self.positions.push(p.to_array());
-            self.normals.push(n);
-        }
-        self.indices.extend([0, 1, 2, 0, 2, 3].map(|k| base + k));
-    }
-
-    /// Adds one triangle (front face by its winding) as three new vertices.
-    fn triangle(&mut self, corners: [Vec3; 3]) {
-        let base = u32::try_from(self.positions.len()).expect("mesh too large");
-        let n = geometric_normal_of(corners).to_array();
-        for p in corners {
-            self.positions.push(p.to_array());
-            self.normals.push(n);
-        }
-        self.indices.extend([base, base + 1, base + 2]);
-    }
-
-    /// Adds an axis-aligned closed box with outward-facing quads.
-    fn cuboid(&mut self, min: Vec3, max: Vec3) {
-        let centre = (min + max) * 0.5;
-        let half = (max - min) * 0.5;
-        let axis = |k: usize| Vec3::AXES[k] * half[k];
-        for a in 0..3 {
-            // e_b × e_c = e_a for the cyclic successors b and c of a.
-            let (u, v) = (axis((a + 1) % 3), axis((a + 2) % 3));
-            self.quad(centre + axis(a), u, v);
-            self.quad(centre - axis(a), v, u);
-        }
-    }
-
-    /// The triangles as a non-indexed vertex list.
-    fn triangle_soup(&self) -> Vec<[f32; 3]> {
-        self.indices
-            .iter()
-            .map(|&i| self.positions[i as usize])
-            .collect()
-    }
-}
-
-/// The unit normal of the counter-clockwise front face.
-fn geometric_normal_of([a, b, c]: [Vec3; 3]) -> Vec3 {
-    (b - a).cross(c - a).normalize()
 }
 
 /// Uniform `f32` in [0, 1) from the top 24 bits of a `u32`.

@@ -3,4 +3,5 @@
 
 pub mod generate;
 pub mod gltf_write;
+mod mesh;
 pub mod sky;

@@ -9,6 +9,7 @@
 use glam::Vec3;
 
 use super::gltf_write::{look_at_rotation, GltfBuilder, Material, NodeTransform};
+use super::mesh::{add_object, QuadMesh};
 use crate::image::RgbImage;
 use crate::sampling::warp::equirectangular_direction;
 
@@ -102,9 +103,9 @@ pub fn outdoor() -> GltfBuilder {
         ..matte("lamp", [0.8; 3], 0.8)
     });
 
-    let mut mesh = Mesh::default();
+    let mut mesh = QuadMesh::default();
     mesh.quad(Vec3::ZERO, Vec3::Z * 20.0, Vec3::X * 20.0);
-    mesh.add_to(&mut b, "ground", ground);
+    add_object(&mut b, "ground", &mesh, ground, NodeTransform::Identity);
     // (centre x, centre z, half size x, height, half size z) per box.
     let boxes = [
         (-2.2, -0.5, 0.6, 1.2, 0.6),
@@ -114,18 +115,24 @@ pub fn outdoor() -> GltfBuilder {
         (0.2, -2.8, 1.5, 1.4, 0.4),
     ];
     for (k, &(x, z, hx, h, hz)) in boxes.iter().enumerate() {
-        let mut cube = Mesh::default();
+        let mut cube = QuadMesh::default();
         cube.cuboid(Vec3::new(x - hx, 0.0, z - hz), Vec3::new(x + hx, h, z + hz));
-        cube.add_to(&mut b, &format!("box {k}"), materials[k]);
+        add_object(
+            &mut b,
+            &format!("box {k}"),
+            &cube,
+            materials[k],
+            NodeTransform::Identity,
+        );
     }
     // The lamp: a 0.4 × 0.3 m panel just in front of the tall box's +Z face, facing +Z.
-    let mut panel = Mesh::default();
+    let mut panel = QuadMesh::default();
     panel.quad(
         Vec3::new(0.9, 1.4, -0.8 + 0.5 + 0.005),
         Vec3::X * 0.2,
         Vec3::Y * 0.15,
     );
-    panel.add_to(&mut b, "lamp", lamp);
+    add_object(&mut b, "lamp", &panel, lamp, NodeTransform::Identity);
 
     let (eye, target) = ([0.0, 2.2, 7.0], [0.0, 0.8, 0.0]);
     let camera = b.add_perspective_camera("camera", 45f32.to_radians(), Some(1.5), 0.01);
@@ -140,49 +147,6 @@ pub fn outdoor() -> GltfBuilder {
         },
     );
     b
-}
-
-/// Indexed quads with flat normals.
-#[derive(Default)]
-struct Mesh {
-    positions: Vec<[f32; 3]>,
-    normals: Vec<[f32; 3]>,
-    indices: Vec<u32>,
-}
-
-impl Mesh {
-    /// The quad centred at `c` with half-edges `u`, `v`, facing along u × v.
-    fn quad(&mut self, c: Vec3, u: Vec3, v: Vec3) {
-        let base = self.positions.len() as u32;
-        let n = u.cross(v).normalize().to_array();
-        for p in [c - u - v, c + u - v, c + u + v, c - u + v] {
-            self.positions.push(p.to_array());
-            self.normals.push(n);
-        }
-        self.indices.extend([0, 1, 2, 0, 2, 3].map(|k| base + k));
-    }
-
-    /// A closed axis-aligned box with outward faces.
-    fn cuboid(&mut self, lo: Vec3, hi: Vec3) {
-        let (c, h) = ((lo + hi) * 0.5, (hi - lo) * 0.5);
-        let axis = |k: usize| Vec3::AXES[k] * h[k];
-        for a in 0..3 {
-            let (u, v) = (axis((a + 1) % 3), axis((a + 2) % 3));
-            self.quad(c + axis(a), u, v);
-            self.quad(c - axis(a), v, u);
-        }
-    }
-
-    fn add_to(&self, b: &mut GltfBuilder, name: &str, material: usize) {
-        let mesh = b.add_mesh(
-            name,
-            &self.positions,
-            Some(&self.normals),
-            Some(&self.indices),
-            material,
-        );
-        b.add_node(name, Some(mesh), None, NodeTransform::Identity);
-    }
 }
 
 #[cfg(test)]
