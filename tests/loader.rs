@@ -6,7 +6,7 @@ use std::path::Path;
 
 use glam::Vec3;
 use manylights::gen::generate;
-use manylights::gen::gltf_write::{GltfBuilder, Material, NodeTransform};
+use manylights::gen::gltf_write::{GltfBuilder, GltfMaterial, NodeTransform};
 use manylights::lights::Lights;
 use manylights::scene::{load_gltf, CameraChoice, LoadError, Projection};
 
@@ -60,12 +60,12 @@ fn gltf_and_glb_load_the_same_scene() {
 /// One triangle facing +Z in its local frame, under `transform`.
 fn single_triangle_scene(path: &Path, transform: NodeTransform, parent: Option<NodeTransform>) {
     let mut b = GltfBuilder::new();
-    let m = b.add_material(Material {
+    let m = b.add_material(GltfMaterial {
         name: "glow".into(),
         emissive: [1.0, 0.5, 0.25],
         emissive_strength: 4.0,
         double_sided: true,
-        ..Material::default()
+        ..GltfMaterial::default()
     });
     let mesh = b.add_mesh(
         "tri",
@@ -169,7 +169,7 @@ fn cameras_are_chosen_by_index_or_name() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("cams.glb");
     let mut b = GltfBuilder::new();
-    let m = b.add_material(Material::default());
+    let m = b.add_material(GltfMaterial::default());
     let mesh = b.add_mesh(
         "tri",
         &[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],

@@ -27,7 +27,7 @@ use glam::{Mat4, Quat, Vec3};
 use rand_core::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
 
-use super::gltf_write::{look_at_rotation, GltfBuilder, Material, NodeTransform};
+use super::gltf_write::{look_at_rotation, GltfBuilder, GltfMaterial, NodeTransform};
 use super::mesh::{add_object, QuadMesh};
 
 /// Builds a 2 m Cornell-like box: floor at y = 0, ceiling at y = 2, walls at
@@ -57,11 +57,11 @@ fn cornell_with(split: Option<(usize, u64)>) -> GltfBuilder {
     let white = b.add_material(matte("white", [0.73; 3]));
     let red = b.add_material(matte("red", [0.63, 0.065, 0.05]));
     let green = b.add_material(matte("green", [0.14, 0.45, 0.091]));
-    let glossy = b.add_material(Material {
+    let glossy = b.add_material(GltfMaterial {
         roughness: 0.3,
         ..matte("glossy white", [0.73; 3])
     });
-    let lamp_material = |name: String, strength: f32| Material {
+    let lamp_material = |name: String, strength: f32| GltfMaterial {
         emissive: [1.0, 0.85, 0.6],
         emissive_strength: strength,
         ..matte(&name, [0.78; 3])
@@ -169,12 +169,12 @@ fn facing([a, b, c]: [Vec3; 3], normal: Vec3) -> [Vec3; 3] {
 }
 
 /// A one-sided rough dielectric of the given colour.
-fn matte(name: &str, base_color: [f32; 3]) -> Material {
-    Material {
+fn matte(name: &str, base_color: [f32; 3]) -> GltfMaterial {
+    GltfMaterial {
         name: name.to_owned(),
         base_color,
         roughness: 0.8,
-        ..Material::default()
+        ..GltfMaterial::default()
     }
 }
 

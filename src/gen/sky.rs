@@ -8,7 +8,7 @@
 
 use glam::Vec3;
 
-use super::gltf_write::{look_at_rotation, GltfBuilder, Material, NodeTransform};
+use super::gltf_write::{look_at_rotation, GltfBuilder, GltfMaterial, NodeTransform};
 use super::mesh::{add_object, QuadMesh};
 use crate::image::RgbImage;
 use crate::sampling::warp::equirectangular_direction;
@@ -80,24 +80,24 @@ pub fn sun_and_sky(width: usize, height: usize) -> RgbImage {
 /// tallest box; the camera at (0, 2.2, 7) looks toward (0, 0.8, 0).
 pub fn outdoor() -> GltfBuilder {
     let mut b = GltfBuilder::new();
-    let matte = |name: &str, base_color: [f32; 3], roughness: f32| Material {
+    let matte = |name: &str, base_color: [f32; 3], roughness: f32| GltfMaterial {
         name: name.to_owned(),
         base_color,
         roughness,
-        ..Material::default()
+        ..GltfMaterial::default()
     };
     let ground = b.add_material(matte("ground", [0.45, 0.42, 0.38], 0.9));
     let materials = [
         b.add_material(matte("white", [0.75; 3], 0.8)),
         b.add_material(matte("red", [0.7, 0.12, 0.08], 0.7)),
         b.add_material(matte("blue", [0.1, 0.2, 0.65], 0.6)),
-        b.add_material(Material {
+        b.add_material(GltfMaterial {
             metallic: 1.0,
             ..matte("gold", [0.95, 0.75, 0.35], 0.25)
         }),
         b.add_material(matte("glossy", [0.3; 3], 0.15)),
     ];
-    let lamp = b.add_material(Material {
+    let lamp = b.add_material(GltfMaterial {
         emissive: [1.0, 0.7, 0.4],
         emissive_strength: 40.0,
         ..matte("lamp", [0.8; 3], 0.8)

@@ -14,7 +14,7 @@ use glam::Vec3;
 use rand_core::SeedableRng;
 use rand_pcg::Pcg32;
 
-use super::super::gltf_write::{GltfBuilder, Material, NodeTransform};
+use super::super::gltf_write::{GltfBuilder, GltfMaterial, NodeTransform};
 use super::{add_camera_with_aspect, add_object, below, matte, uniform, weighted, QuadMesh};
 
 /// The largest light count `city` accepts.
@@ -152,11 +152,11 @@ pub fn city(lights: usize, seed: u64) -> GltfBuilder {
             tangent * WINDOW_HALF_WIDTH,
         );
     }
-    let glass = b.add_material(Material {
+    let glass = b.add_material(GltfMaterial {
         name: "dark glass".into(),
         base_color: [0.02, 0.03, 0.05],
         roughness: 0.1,
-        ..Material::default()
+        ..GltfMaterial::default()
     });
     if !dark.positions.is_empty() {
         add_object(
@@ -212,14 +212,14 @@ pub fn city(lights: usize, seed: u64) -> GltfBuilder {
     for (&(kind, colour, level), mesh) in &groups.0 {
         let name = format!("{} {colour} L{level:02}", kind.name());
         let strength = 10f32.powf(LOWEST_DECADE + level as f32 / LEVELS_PER_DECADE);
-        let material = b.add_material(Material {
+        let material = b.add_material(GltfMaterial {
             name: name.clone(),
             base_color: [0.1; 3],
             roughness: 0.4,
             emissive: kind.colours()[colour],
             emissive_strength: strength,
             double_sided: kind == Kind::Neon,
-            ..Material::default()
+            ..GltfMaterial::default()
         });
         let m = b.add_mesh(&name, &mesh.positions, None, Some(&mesh.indices), material);
         b.add_node(&name, Some(m), None, NodeTransform::Identity);

@@ -13,7 +13,7 @@
 
 use glam::Vec3;
 
-use super::super::gltf_write::{GltfBuilder, Material, NodeTransform};
+use super::super::gltf_write::{GltfBuilder, GltfMaterial, NodeTransform};
 use super::{add_camera_with_aspect, add_object, QuadMesh};
 
 /// Albedo of every receiver (box floors and the far light's plate).
@@ -127,11 +127,11 @@ pub const PROBES: [Probe; 11] = [
 /// plate beside them, and a camera in front looking into the openings.
 pub fn extremes() -> GltfBuilder {
     let mut b = GltfBuilder::new();
-    let lambert = |name: &str, albedo: f32| Material {
+    let lambert = |name: &str, albedo: f32| GltfMaterial {
         name: name.into(),
         base_color: [albedo; 3],
         specular: 0.0,
-        ..Material::default()
+        ..GltfMaterial::default()
     };
     let receiver = b.add_material(lambert("receiver", RECEIVER_ALBEDO));
     let wall = b.add_material(lambert("wall", 0.4));
@@ -172,14 +172,14 @@ pub fn extremes() -> GltfBuilder {
     add_object(&mut b, "walls", &walls, wall, NodeTransform::Identity);
 
     let mut emitter = |name: &str, radiance: f32, two_sided: bool, mesh: QuadMesh| {
-        let m = b.add_material(Material {
+        let m = b.add_material(GltfMaterial {
             name: name.into(),
             base_color: [0.0; 3],
             specular: 0.0,
             emissive: [1.0; 3],
             emissive_strength: radiance,
             double_sided: two_sided,
-            ..Material::default()
+            ..GltfMaterial::default()
         });
         add_object(&mut b, name, &mesh, m, NodeTransform::Identity);
     };

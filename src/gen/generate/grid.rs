@@ -5,7 +5,7 @@
 
 use glam::Vec3;
 
-use super::super::gltf_write::{GltfBuilder, Material, NodeTransform};
+use super::super::gltf_write::{GltfBuilder, GltfMaterial, NodeTransform};
 use super::{add_camera, add_object, matte, QuadMesh};
 
 /// Side of the square the light grid covers, metres.
@@ -38,11 +38,11 @@ pub fn grid(n: usize) -> GltfBuilder {
         NodeTransform::Identity,
     );
 
-    let light = b.add_material(Material {
+    let light = b.add_material(GltfMaterial {
         name: "grid light".into(),
         base_color: [0.0; 3],
         emissive: [1.0; 3],
-        ..Material::default()
+        ..GltfMaterial::default()
     });
     let pitch = EXTENT / n as f32;
     let half = 0.5 * FILL * pitch;

@@ -10,7 +10,7 @@ use glam::Vec3;
 use rand_core::SeedableRng;
 use rand_pcg::Pcg32;
 
-use super::super::gltf_write::{GltfBuilder, Material, NodeTransform, TextureSampling};
+use super::super::gltf_write::{GltfBuilder, GltfMaterial, NodeTransform, TextureSampling};
 use super::{add_camera, add_object, below, matte, uniform, QuadMesh};
 
 /// Side of the emissive texture, texels.
@@ -35,7 +35,7 @@ pub fn textured(n: usize, seed: u64) -> GltfBuilder {
     let mut b = GltfBuilder::new();
 
     let checker = b.add_png_texture("checker", checker_png(), TextureSampling::LinearRepeat);
-    let floor_material = b.add_material(Material {
+    let floor_material = b.add_material(GltfMaterial {
         base_color_texture: Some(checker),
         ..matte("checker floor", [0.8; 3])
     });
@@ -54,13 +54,13 @@ pub fn textured(n: usize, seed: u64) -> GltfBuilder {
     b.add_node("floor", Some(m), None, NodeTransform::Identity);
 
     let spots = b.add_png_texture("spots", spots_png(&mut rng), TextureSampling::NearestClamp);
-    let panel_material = b.add_material(Material {
+    let panel_material = b.add_material(GltfMaterial {
         name: "spotted panel".into(),
         base_color: [0.0; 3],
         emissive: [1.0; 3],
         emissive_strength: STRENGTH,
         emissive_texture: Some(spots),
-        ..Material::default()
+        ..GltfMaterial::default()
     });
     let (positions, uvs, indices) = panel(n);
     let m = b.add_mesh_with_uvs(

@@ -5,7 +5,7 @@ use glam::{Mat4, Vec3};
 use rand_core::SeedableRng;
 use rand_pcg::Pcg32;
 
-use super::super::gltf_write::{GltfBuilder, Material, NodeTransform};
+use super::super::gltf_write::{GltfBuilder, GltfMaterial, NodeTransform};
 use super::*;
 
 /// Builds a night town of about `target_lights` emissive triangles (two per
@@ -246,14 +246,14 @@ impl LightGroups {
             let (colour_name, emissive) = COLOURS[colour];
             let kind = if two_sided { "neon" } else { "lit" };
             let name = format!("{kind} {colour_name} L{level:02}");
-            let material = b.add_material(Material {
+            let material = b.add_material(GltfMaterial {
                 name: name.clone(),
                 base_color: [0.1; 3],
                 roughness: 0.5,
                 emissive,
                 emissive_strength: level_strength(level),
                 double_sided: two_sided,
-                ..Material::default()
+                ..GltfMaterial::default()
             });
             let m = if two_sided {
                 b.add_mesh(&name, &mesh.triangle_soup(), None, None, material)

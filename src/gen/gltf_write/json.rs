@@ -109,7 +109,7 @@ pub(super) fn mesh_json(mesh: &MeshData, bin: &mut BinWriter) -> Value {
 }
 
 /// Returns the JSON object of a material.
-pub(super) fn material_json(m: &Material) -> Value {
+pub(super) fn material_json(m: &GltfMaterial) -> Value {
     let [r, g, b] = m.base_color;
     let mut out = json!({
         "name": m.name,

@@ -45,7 +45,7 @@ const CHUNK_BIN: u32 = 0x004E_4942;
 
 /// A metallic-roughness material with an optional emission.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Material {
+pub struct GltfMaterial {
     /// Material name.
     pub name: String,
     /// Linear RGB base colour; alpha is always 1.
@@ -70,7 +70,7 @@ pub struct Material {
     pub base_color_texture: Option<usize>,
 }
 
-impl Default for Material {
+impl Default for GltfMaterial {
     /// A white, rough, non-emissive, one-sided dielectric.
     fn default() -> Self {
         Self {
@@ -163,7 +163,7 @@ struct CameraData {
 /// programming errors and panic.
 #[derive(Clone, Debug, Default)]
 pub struct GltfBuilder {
-    materials: Vec<Material>,
+    materials: Vec<GltfMaterial>,
     meshes: Vec<MeshData>,
     nodes: Vec<NodeData>,
     cameras: Vec<CameraData>,
@@ -181,7 +181,7 @@ impl GltfBuilder {
     /// # Panics
     /// If a factor is non-finite or outside its valid range, or a texture
     /// does not exist.
-    pub fn add_material(&mut self, material: Material) -> usize {
+    pub fn add_material(&mut self, material: GltfMaterial) -> usize {
         let m = &material;
         let unit =
             m.base_color

@@ -84,16 +84,16 @@ pub(crate) fn assert_matches(builder: &GltfBuilder, doc: &gltf::Document, blob: 
 /// non-indexed mesh, normals, both transform kinds and a hierarchy.
 fn sample() -> GltfBuilder {
     let mut b = GltfBuilder::new();
-    let plain = b.add_material(Material {
+    let plain = b.add_material(GltfMaterial {
         name: "plain".into(),
-        ..Material::default()
+        ..GltfMaterial::default()
     });
-    let glow = b.add_material(Material {
+    let glow = b.add_material(GltfMaterial {
         name: "glow".into(),
         emissive: [1.0, 0.5, 0.25],
         emissive_strength: 7.5,
         double_sided: true,
-        ..Material::default()
+        ..GltfMaterial::default()
     });
     let tri = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
     let up = [[0.0, 0.0, 1.0]; 3];
@@ -182,13 +182,13 @@ fn textures_uvs_and_specular_round_trip() {
     let mut b = GltfBuilder::new();
     let glow = b.add_png_texture("glow", png.clone(), TextureSampling::NearestClamp);
     let tiles = b.add_png_texture("tiles", png.clone(), TextureSampling::LinearRepeat);
-    let m = b.add_material(Material {
+    let m = b.add_material(GltfMaterial {
         name: "textured".into(),
         emissive: [1.0; 3],
         emissive_texture: Some(glow),
         base_color_texture: Some(tiles),
         specular: 0.0,
-        ..Material::default()
+        ..GltfMaterial::default()
     });
     let tri = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
     let uv = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]];
@@ -217,7 +217,7 @@ fn textures_uvs_and_specular_round_trip() {
 #[test]
 fn strength_one_needs_no_extension() {
     let mut b = GltfBuilder::new();
-    b.add_material(Material::default());
+    b.add_material(GltfMaterial::default());
     let (doc, _) = round_trip(&b, "glb");
     assert_eq!(doc.extensions_used().count(), 0);
     assert_eq!(doc.meshes().len(), 0);
