@@ -9,7 +9,7 @@ use super::estimator::{Estimator, SampleCounts};
 use crate::accel::PACKET;
 use crate::color::luminance;
 use crate::film::{classify, Film, PixelStats, SampleClass};
-use crate::sampling::sampler::{CameraSample, Sampler, SamplerKind};
+use crate::sampling::sampler::{CameraSample, PixelSampler, Sampler, SamplerKind};
 use crate::scene::Camera;
 
 const TILE: u32 = 16;
@@ -125,17 +125,21 @@ fn render_tile(
     ty: u32,
 ) -> (Vec<PixelStats>, RenderStats) {
     let (w, h) = (opts.width, opts.height);
-    let mut pixels = Vec::with_capacity((TILE * TILE) as usize);
-    let mut stats = RenderStats::default();
-    // The current pixel's sample luminances, for counting fireflies once its mean is known.
-    let mut luminances: Vec<f32> = Vec::with_capacity(opts.spp as usize);
-    for y in ty * TILE..((ty + 1) * TILE).min(h) {
-        for x in tx * TILE..((tx + 1) * TILE).min(w) {
-            luminances.clear();
-            let pixel_sampler = sampler.pixel(y as u64 * w as u64 + x as u64);
-            let mut pixel = PixelStats::default();
-            // The pixel's camera rays go through the BVH PACKET at a time; each sample is then
-            // shaded in order, so the pixel's sums are the same as one ray at a time.
+    let mut tile = TileSums {
+        pixels: Vec::with_capacity((TILE * TILE) as usize),
+        pixel: PixelStats::default(),
+        luminances: Vec::with_capacity(opts.spp as usize),
+        stats: RenderStats::default(),
+    };
+    let pixels: Vec<(u32, u32)> = (ty * TILE..((ty + 1) * TILE).min(h))
+        .flat_map(|y| (tx * TILE..((tx + 1) * TILE).min(w)).map(move |x| (x, y)))
+        .collect();
+    let pixel_sampler = |(x, y): (u32, u32)| sampler.pixel(y as u64 * w as u64 + x as u64);
+    let spp = opts.spp as usize;
+    if spp >= PACKET {
+        // A pixel's camera rays go through the BVH PACKET at a time.
+        for &(x, y) in &pixels {
+            let pixel_sampler = pixel_sampler((x, y));
             for first in (0..opts.spp).step_by(PACKET) {
                 let count = (opts.spp - first).min(PACKET as u32) as usize;
                 // Slots past the pixel's last sample repeat it and are never traced.
@@ -146,32 +150,95 @@ fn render_tile(
                     let [jx, jy] = samples[i].pixel_jitter();
                     camera.ray(x as f32 + jx, y as f32 + jy, w, h)
                 });
-                let mut hits = [None; PACKET];
-                estimator
-                    .accel
-                    .closest_hits(&rays[..count], &mut hits[..count]);
-                for i in 0..count {
-                    let surface_hits = stats.rays.surface_hits;
-                    let l =
-                        estimator.radiance_from(hits[i], rays[i].1, &samples[i], &mut stats.rays);
-                    stats.camera_samples += 1;
-                    match classify(l) {
-                        SampleClass::Finite => {
-                            luminances.push(luminance(l));
-                            let l = opts.clamp.map_or(l, |c| l.min(Vec3::splat(c)));
-                            pixel.add(l.as_dvec3());
-                            pixel.surface += stats.rays.surface_hits - surface_hits;
-                        }
-                        SampleClass::Nan => stats.nan_samples += 1,
-                        SampleClass::Infinite => stats.inf_samples += 1,
-                    }
-                }
+                tile.shade(estimator, opts, &samples, &rays, count, 0);
             }
-            count_fireflies(&luminances, &mut stats);
-            pixels.push(pixel);
+            tile.end_pixel();
+        }
+    } else if let Some(group) = PACKET.checked_div(spp) {
+        // Fewer samples than a packet holds: the samples of PACKET / spp neighbouring pixels,
+        // pixel after pixel, share one walk.
+        for run in pixels.chunks(group) {
+            let count = run.len() * spp;
+            let samplers: [PixelSampler; PACKET] =
+                std::array::from_fn(|p| pixel_sampler(run[p.min(run.len() - 1)]));
+            // Slot i is sample i % spp of the run's pixel i / spp; slots past the run's last
+            // sample repeat it and are never traced.
+            let slot = |i: usize| {
+                let i = i.min(count - 1);
+                (i / spp, (i % spp) as u32)
+            };
+            let samples: [CameraSample; PACKET] = std::array::from_fn(|i| {
+                let (p, s) = slot(i);
+                samplers[p].camera_sample(s)
+            });
+            let rays: [(Vec3, Vec3); PACKET] = std::array::from_fn(|i| {
+                let (x, y) = run[slot(i).0];
+                let [jx, jy] = samples[i].pixel_jitter();
+                camera.ray(x as f32 + jx, y as f32 + jy, w, h)
+            });
+            let last_of_pixel = (1..=run.len()).fold(0, |mask, p| mask | 1 << (p * spp - 1));
+            tile.shade(estimator, opts, &samples, &rays, count, last_of_pixel);
+        }
+    } else {
+        tile.pixels.resize(pixels.len(), PixelStats::default());
+    }
+    (tile.pixels, tile.stats)
+}
+
+/// A tile's finished pixels, the pixel being sampled, and what the render did.
+struct TileSums {
+    pixels: Vec<PixelStats>,
+    pixel: PixelStats,
+    /// The current pixel's sample luminances, for counting fireflies once its mean is known.
+    luminances: Vec<f32>,
+    stats: RenderStats,
+}
+
+impl TileSums {
+    /// Traces the camera rays of slots 0..count in one packet, then shades and adds each sample
+    /// in slot order, so every pixel's sums are the same as one ray at a time. A slot whose bit
+    /// is set in `last_of_pixel` ends its pixel.
+    #[inline(always)]
+    fn shade(
+        &mut self,
+        estimator: &Estimator,
+        opts: &RenderOptions,
+        samples: &[CameraSample; PACKET],
+        rays: &[(Vec3, Vec3); PACKET],
+        count: usize,
+        last_of_pixel: u32,
+    ) {
+        let mut hits = [None; PACKET];
+        estimator
+            .accel
+            .closest_hits(&rays[..count], &mut hits[..count]);
+        for i in 0..count {
+            let stats = &mut self.stats;
+            let surface_hits = stats.rays.surface_hits;
+            let l = estimator.radiance_from(hits[i], rays[i].1, &samples[i], &mut stats.rays);
+            stats.camera_samples += 1;
+            match classify(l) {
+                SampleClass::Finite => {
+                    self.luminances.push(luminance(l));
+                    let l = opts.clamp.map_or(l, |c| l.min(Vec3::splat(c)));
+                    self.pixel.add(l.as_dvec3());
+                    self.pixel.surface += stats.rays.surface_hits - surface_hits;
+                }
+                SampleClass::Nan => stats.nan_samples += 1,
+                SampleClass::Infinite => stats.inf_samples += 1,
+            }
+            if last_of_pixel & 1 << i != 0 {
+                self.end_pixel();
+            }
         }
     }
-    (pixels, stats)
+
+    /// Closes the current pixel: counts its fireflies and keeps its statistics.
+    fn end_pixel(&mut self) {
+        count_fireflies(&self.luminances, &mut self.stats);
+        self.luminances.clear();
+        self.pixels.push(std::mem::take(&mut self.pixel));
+    }
 }
 
 /// Adds one pixel's fireflies (luminance > FIREFLY_FACTOR × the pixel's mean, f64) and its
@@ -187,6 +254,52 @@ fn count_fireflies(luminances: &[f32], stats: &mut RenderStats) {
         stats.max_sample_luminance = stats.max_sample_luminance.max(l);
         if mean > 0.0 && l > threshold {
             stats.fireflies += 1;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::integrator::{PreparedScene, Strategy};
+    use crate::scene::{load_gltf, CameraChoice};
+    use crate::select::SelectorKind;
+
+    /// Rays traced in packets (a pixel's eight at a time, or several pixels' when spp < 8) give
+    /// every pixel exactly the sums of tracing and shading its samples one at a time.
+    #[test]
+    fn packets_give_the_pixels_of_one_ray_at_a_time() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.glb");
+        let scene = load_gltf(&path, &CameraChoice::default()).unwrap();
+        let camera = scene.camera.clone().unwrap();
+        let prepared = PreparedScene::new(scene, SelectorKind::Bvh);
+        let estimator = prepared.estimator(Strategy::Mis, 1, 1);
+        for spp in [1, 3, 8, 11] {
+            let opts = RenderOptions::new(19, 13, spp, 5);
+            let (film, stats) = render(&estimator, &camera, &opts);
+            let sampler = Sampler::new(opts.sampler, opts.seed, 0, spp, 1, 1);
+            let mut counts = SampleCounts::default();
+            for y in 0..opts.height {
+                for x in 0..opts.width {
+                    let pixel_sampler = sampler.pixel((y * opts.width + x) as u64);
+                    let mut pixel = PixelStats::default();
+                    for s in 0..spp {
+                        let cs = pixel_sampler.camera_sample(s);
+                        let [jx, jy] = cs.pixel_jitter();
+                        let (o, d) = camera.ray(x as f32 + jx, y as f32 + jy, 19, 13);
+                        let before = counts.surface_hits;
+                        let l = estimator.radiance(o, d, &cs, &mut counts);
+                        pixel.add(l.as_dvec3());
+                        pixel.surface += counts.surface_hits - before;
+                    }
+                    assert_eq!(
+                        film.pixels[(y * opts.width + x) as usize],
+                        pixel,
+                        "spp {spp}"
+                    );
+                }
+            }
+            assert_eq!(stats.rays, counts, "spp {spp}");
         }
     }
 }
