@@ -50,11 +50,13 @@ impl Accel {
             node,
             state,
             {
-                let mut mask = 0;
+                // The children any ray hits; the boxes are widened once for all the rays.
+                let boxes = node_avx2::child_boxes(node);
+                let mut hit = _mm256_setzero_ps();
                 for ray in rays.iter() {
-                    mask |= node_avx2::intersect_node(node, ray, state.oct_inv4);
+                    hit = _mm256_or_ps(hit, node_avx2::hit_lanes(node, ray, |axis| boxes[axis]));
                 }
-                mask
+                node_avx2::traversal_mask(node, state.oct_inv4, hit)
             },
             {
                 let slot = state.primitive_id;
