@@ -159,8 +159,12 @@ fn render_tile(
         // pixel after pixel, share one walk.
         for run in pixels.chunks(group) {
             let count = run.len() * spp;
-            let samplers: [PixelSampler; PACKET] =
-                std::array::from_fn(|p| pixel_sampler(run[p.min(run.len() - 1)]));
+            // The run's pixels' sequences (spare entries repeat the first, never read).
+            let first = pixel_sampler(run[0]);
+            let samplers: [PixelSampler; PACKET] = std::array::from_fn(|p| match run.get(p) {
+                Some(&pixel) if p > 0 => pixel_sampler(pixel),
+                _ => first,
+            });
             // Slot i is sample i % spp of the run's pixel i / spp; slots past the run's last
             // sample repeat it and are never traced.
             let slot = |i: usize| {
