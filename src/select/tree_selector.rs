@@ -107,19 +107,19 @@ impl BvhSelector {
         }
     }
 
-    /// The probability of choosing from the tree at this shading point.
-    #[inline]
-    fn p_tree_at(&self, ctx: &ShadingContext) -> f64 {
-        if self.infinite.is_empty() || self.tree.can_reach(ctx.p, ctx.n) {
-            self.p_tree
-        } else {
-            0.0
-        }
-    }
-
     #[inline]
     pub fn sample(&self, ctx: &ShadingContext, u: f64) -> Option<(usize, f64)> {
-        let p_tree = self.p_tree_at(ctx);
+        if self.infinite.is_empty() {
+            // p_tree is 1 (or 0 for an empty tree, which samples nothing).
+            return self
+                .tree
+                .sample(ctx.p, ctx.n, u.min(1.0 - f64::EPSILON))
+                .map(|(l, p)| (l, p * self.p_tree));
+        }
+        // With infinite lights the tree is chosen only where it can reach the receiver: its
+        // root, evaluated once here, answers that and starts the walk.
+        let root = self.tree.root(ctx.p, ctx.n);
+        let p_tree = if root.is_some() { self.p_tree } else { 0.0 };
         let p_infinite = 1.0 - p_tree;
         if u < p_infinite {
             let mut acc = 0.0;
@@ -136,14 +136,20 @@ impl BvhSelector {
         }
         let u_tree = ((u - p_infinite) / p_tree).min(1.0 - f64::EPSILON);
         self.tree
-            .sample(ctx.p, ctx.n, u_tree)
+            .sample_below(&root?, ctx.p, ctx.n, u_tree)
             .map(|(l, p)| (l, p * p_tree))
     }
 
     pub fn pmf(&self, ctx: &ShadingContext, light: usize) -> f64 {
-        let p_tree = self.p_tree_at(ctx);
+        if self.infinite.is_empty() {
+            return self.tree.pmf(ctx.p, ctx.n, light) * self.p_tree;
+        }
+        let root = self.tree.root(ctx.p, ctx.n);
+        let p_tree = if root.is_some() { self.p_tree } else { 0.0 };
         if light < self.tree.len() {
-            return self.tree.pmf(ctx.p, ctx.n, light) * p_tree;
+            return root.map_or(0.0, |root| {
+                self.tree.pmf_below(&root, ctx.p, ctx.n, light) * p_tree
+            });
         }
         let p_infinite = 1.0 - p_tree;
         self.infinite

@@ -55,7 +55,7 @@ use wide::*;
 
 pub use bounds::LightBounds;
 use bounds::*;
-pub use traverse::LightBvh;
+pub use traverse::{LightBvh, RootImportances};
 
 /// Absolute tolerance on the cosines compared in the importance, larger than the
 /// f32 rounding of those cosines: a node is only rejected with this margin.

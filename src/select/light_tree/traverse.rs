@@ -10,6 +10,13 @@ use rayon::prelude::*;
 use super::*;
 use crate::cpu::has_avx2_fma;
 
+/// One node's lane importances in f64 and their sum.
+type Importances = ([f64; LANES], f64);
+
+/// The root's importances at one receiver, from [`LightBvh::root`].
+#[derive(Clone, Copy, Debug)]
+pub struct RootImportances(Importances);
+
 /// A light bounding volume hierarchy over emitters' [`LightBounds`].
 #[derive(Clone, Debug)]
 pub struct LightBvh {
@@ -66,7 +73,78 @@ impl LightBvh {
     /// Whether some light in the tree may reach the upper hemisphere of a
     /// receiver at (p, n) (some root lane has positive importance).
     pub fn can_reach(&self, p: Vec3, n: Vec3) -> bool {
-        is_finite(p, n) && self.importances(0, p, n).is_some()
+        self.root(p, n).is_some()
+    }
+
+    /// The root's lane importances at (p, n), or `None` where no light in the
+    /// tree can reach the receiver. A caller that must know this before it
+    /// chooses passes the answer on to [`sample_below`](Self::sample_below) or
+    /// [`pmf_below`](Self::pmf_below), which then do not evaluate the root again.
+    pub fn root(&self, p: Vec3, n: Vec3) -> Option<RootImportances> {
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            // SAFETY: `avx2` is true only when the CPU reported AVX2 and FMA.
+            return unsafe { self.root_avx2(p, n) };
+        }
+        self.root_portable(p, n)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn root_avx2(&self, p: Vec3, n: Vec3) -> Option<RootImportances> {
+        self.root_portable(p, n)
+    }
+
+    #[inline(always)]
+    fn root_portable(&self, p: Vec3, n: Vec3) -> Option<RootImportances> {
+        if !is_finite(p, n) {
+            return None;
+        }
+        self.importances(0, p, n).map(RootImportances)
+    }
+
+    /// [`sample`](Self::sample) from the root `root` evaluated at the same (p, n).
+    pub fn sample_below(
+        &self,
+        root: &RootImportances,
+        p: Vec3,
+        n: Vec3,
+        u: f64,
+    ) -> Option<(usize, f64)> {
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            // SAFETY: `avx2` is true only when the CPU reported AVX2 and FMA.
+            return unsafe { self.sample_below_avx2(root, p, n, u) };
+        }
+        self.sample_portable(p, n, u, Some(root.0))
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn sample_below_avx2(
+        &self,
+        root: &RootImportances,
+        p: Vec3,
+        n: Vec3,
+        u: f64,
+    ) -> Option<(usize, f64)> {
+        self.sample_portable(p, n, u, Some(root.0))
+    }
+
+    /// [`pmf`](Self::pmf) from the root `root` evaluated at the same (p, n).
+    pub fn pmf_below(&self, root: &RootImportances, p: Vec3, n: Vec3, light: usize) -> f64 {
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            // SAFETY: `avx2` is true only when the CPU reported AVX2 and FMA.
+            return unsafe { self.pmf_below_avx2(root, p, n, light) };
+        }
+        self.pmf_portable(p, n, light, Some(root.0))
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn pmf_below_avx2(&self, root: &RootImportances, p: Vec3, n: Vec3, light: usize) -> f64 {
+        self.pmf_portable(p, n, light, Some(root.0))
     }
 
     /// Chooses a light (its id in leaf order) with probability proportional
@@ -82,18 +160,25 @@ impl LightBvh {
             // SAFETY: `avx2` is true only when the CPU reported AVX2 and FMA.
             return unsafe { self.sample_avx2(p, n, u) };
         }
-        self.sample_portable(p, n, u)
+        self.sample_portable(p, n, u, None)
     }
 
     /// [`sample`](Self::sample) compiled for AVX2: the lanes in one register.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
     unsafe fn sample_avx2(&self, p: Vec3, n: Vec3, u: f64) -> Option<(usize, f64)> {
-        self.sample_portable(p, n, u)
+        self.sample_portable(p, n, u, None)
     }
 
+    /// The walk of `sample`; `root`, when given, stands for the root's importances.
     #[inline(always)]
-    fn sample_portable(&self, p: Vec3, n: Vec3, u: f64) -> Option<(usize, f64)> {
+    fn sample_portable(
+        &self,
+        p: Vec3,
+        n: Vec3,
+        u: f64,
+        root: Option<Importances>,
+    ) -> Option<(usize, f64)> {
         if !is_finite(p, n) {
             return None;
         }
@@ -105,7 +190,10 @@ impl LightBvh {
         let mut index = 0;
         let mut pmf = 1.0;
         loop {
-            let (importances, total) = self.importances(index, p, n)?;
+            let (importances, total) = match (index, root) {
+                (0, Some(root)) => root,
+                _ => self.importances(index, p, n)?,
+            };
             let target = u * total;
             let (lane, below) = choose_lane(&importances, target);
             pmf *= importances[lane] / total;
@@ -128,7 +216,7 @@ impl LightBvh {
             // SAFETY: `avx2` is true only when the CPU reported AVX2 and FMA.
             return unsafe { self.pmf_avx2(p, n, light) };
         }
-        self.pmf_portable(p, n, light)
+        self.pmf_portable(p, n, light, None)
     }
 
     /// [`pmf`](Self::pmf) compiled for AVX2 (the same arithmetic: no FMA
@@ -136,11 +224,12 @@ impl LightBvh {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
     unsafe fn pmf_avx2(&self, p: Vec3, n: Vec3, light: usize) -> f64 {
-        self.pmf_portable(p, n, light)
+        self.pmf_portable(p, n, light, None)
     }
 
+    /// The walk of `pmf`; `root`, when given, stands for the root's importances.
     #[inline(always)]
-    fn pmf_portable(&self, p: Vec3, n: Vec3, light: usize) -> f64 {
+    fn pmf_portable(&self, p: Vec3, n: Vec3, light: usize, root: Option<Importances>) -> f64 {
         if light >= self.lights || !is_finite(p, n) {
             return 0.0;
         }
@@ -148,7 +237,11 @@ impl LightBvh {
         let mut index = 0;
         let mut pmf = 1.0;
         loop {
-            let Some((importances, total)) = self.importances(index, p, n) else {
+            let found = match (index, root) {
+                (0, Some(root)) => Some(root),
+                _ => self.importances(index, p, n),
+            };
+            let Some((importances, total)) = found else {
                 return 0.0;
             };
             let node = &self.nodes[index];

@@ -241,3 +241,35 @@ fn leaf_depth(bvh: &LightBvh, light: usize) -> usize {
         (index, depth) = (node.child[lane] as usize, depth + 1);
     }
 }
+
+#[test]
+fn a_root_evaluated_first_gives_the_same_choices_and_pmfs() {
+    let mut rng = Rand::new(12);
+    let scene = random_scene(&mut rng, 300);
+    let (bvh, _) = LightBvh::build(&scene.bounds);
+    let (mut reached, mut unreached) = (0, 0);
+    for (p, n) in receivers(&mut rng, &scene, 400) {
+        let Some(root) = bvh.root(p, n) else {
+            // Where the root says no light reaches, the tree gives nothing either.
+            assert!(bvh.sample(p, n, rng.f64()).is_none(), "p {p} n {n}");
+            assert!((0..bvh.len()).all(|l| bvh.pmf(p, n, l) == 0.0));
+            unreached += 1;
+            continue;
+        };
+        reached += 1;
+        for _ in 0..8 {
+            let u = rng.f64();
+            let below = bvh.sample_below(&root, p, n, u);
+            assert_eq!(below, bvh.sample(p, n, u), "p {p} n {n} u {u}");
+            if let Some((light, pmf)) = below {
+                let again = bvh.pmf_below(&root, p, n, light);
+                assert_eq!(again.to_bits(), pmf.to_bits());
+                assert_eq!(again.to_bits(), bvh.pmf(p, n, light).to_bits());
+            }
+        }
+    }
+    assert!(
+        reached > 200 && unreached > 0,
+        "{reached} reached, {unreached} not"
+    );
+}
