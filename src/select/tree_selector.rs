@@ -144,12 +144,13 @@ impl BvhSelector {
         if self.infinite.is_empty() {
             return self.tree.pmf(ctx.p, ctx.n, light) * self.p_tree;
         }
-        let root = self.tree.root(ctx.p, ctx.n);
-        let p_tree = if root.is_some() { self.p_tree } else { 0.0 };
+        let p_tree = if self.tree.can_reach(ctx.p, ctx.n) {
+            self.p_tree
+        } else {
+            0.0
+        };
         if light < self.tree.len() {
-            return root.map_or(0.0, |root| {
-                self.tree.pmf_below(&root, ctx.p, ctx.n, light) * p_tree
-            });
+            return self.tree.pmf(ctx.p, ctx.n, light) * p_tree;
         }
         let p_infinite = 1.0 - p_tree;
         self.infinite

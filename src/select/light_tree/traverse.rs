@@ -78,8 +78,8 @@ impl LightBvh {
 
     /// The root's lane importances at (p, n), or `None` where no light in the
     /// tree can reach the receiver. A caller that must know this before it
-    /// chooses passes the answer on to [`sample_below`](Self::sample_below) or
-    /// [`pmf_below`](Self::pmf_below), which then do not evaluate the root again.
+    /// chooses passes the answer on to [`sample_below`](Self::sample_below),
+    /// which then does not evaluate the root again.
     pub fn root(&self, p: Vec3, n: Vec3) -> Option<RootImportances> {
         #[cfg(target_arch = "x86_64")]
         if self.avx2 {
@@ -111,40 +111,7 @@ impl LightBvh {
         n: Vec3,
         u: f64,
     ) -> Option<(usize, f64)> {
-        #[cfg(target_arch = "x86_64")]
-        if self.avx2 {
-            // SAFETY: `avx2` is true only when the CPU reported AVX2 and FMA.
-            return unsafe { self.sample_below_avx2(root, p, n, u) };
-        }
-        self.sample_portable(p, n, u, Some(root.0))
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    unsafe fn sample_below_avx2(
-        &self,
-        root: &RootImportances,
-        p: Vec3,
-        n: Vec3,
-        u: f64,
-    ) -> Option<(usize, f64)> {
-        self.sample_portable(p, n, u, Some(root.0))
-    }
-
-    /// [`pmf`](Self::pmf) from the root `root` evaluated at the same (p, n).
-    pub fn pmf_below(&self, root: &RootImportances, p: Vec3, n: Vec3, light: usize) -> f64 {
-        #[cfg(target_arch = "x86_64")]
-        if self.avx2 {
-            // SAFETY: `avx2` is true only when the CPU reported AVX2 and FMA.
-            return unsafe { self.pmf_below_avx2(root, p, n, light) };
-        }
-        self.pmf_portable(p, n, light, Some(root.0))
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    unsafe fn pmf_below_avx2(&self, root: &RootImportances, p: Vec3, n: Vec3, light: usize) -> f64 {
-        self.pmf_portable(p, n, light, Some(root.0))
+        self.sample_from(p, n, u, Some(root.0))
     }
 
     /// Chooses a light (its id in leaf order) with probability proportional
@@ -155,19 +122,37 @@ impl LightBvh {
     /// tree is empty, (p, n) is not finite, a node is reached whose lanes all
     /// have importance 0, or the probability underflows to 0.
     pub fn sample(&self, p: Vec3, n: Vec3, u: f64) -> Option<(usize, f64)> {
+        self.sample_from(p, n, u, None)
+    }
+
+    /// [`sample`](Self::sample), the root's importances given or not.
+    #[inline]
+    fn sample_from(
+        &self,
+        p: Vec3,
+        n: Vec3,
+        u: f64,
+        root: Option<Importances>,
+    ) -> Option<(usize, f64)> {
         #[cfg(target_arch = "x86_64")]
         if self.avx2 {
             // SAFETY: `avx2` is true only when the CPU reported AVX2 and FMA.
-            return unsafe { self.sample_avx2(p, n, u) };
+            return unsafe { self.sample_avx2(p, n, u, root) };
         }
-        self.sample_portable(p, n, u, None)
+        self.sample_portable(p, n, u, root)
     }
 
     /// [`sample`](Self::sample) compiled for AVX2: the lanes in one register.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
-    unsafe fn sample_avx2(&self, p: Vec3, n: Vec3, u: f64) -> Option<(usize, f64)> {
-        self.sample_portable(p, n, u, None)
+    unsafe fn sample_avx2(
+        &self,
+        p: Vec3,
+        n: Vec3,
+        u: f64,
+        root: Option<Importances>,
+    ) -> Option<(usize, f64)> {
+        self.sample_portable(p, n, u, root)
     }
 
     /// The walk of `sample`; `root`, when given, stands for the root's importances.
@@ -189,11 +174,11 @@ impl LightBvh {
         };
         let mut index = 0;
         let mut pmf = 1.0;
+        let (mut importances, mut total) = match root {
+            Some(root) => root,
+            None => self.importances(0, p, n)?,
+        };
         loop {
-            let (importances, total) = match (index, root) {
-                (0, Some(root)) => root,
-                _ => self.importances(index, p, n)?,
-            };
             let target = u * total;
             let (lane, below) = choose_lane(&importances, target);
             pmf *= importances[lane] / total;
@@ -203,6 +188,7 @@ impl LightBvh {
                 return (pmf > 0.0).then_some(((child & !LIGHT_LANE) as usize, pmf));
             }
             index = child as usize;
+            (importances, total) = self.importances(index, p, n)?;
         }
     }
 
@@ -216,7 +202,7 @@ impl LightBvh {
             // SAFETY: `avx2` is true only when the CPU reported AVX2 and FMA.
             return unsafe { self.pmf_avx2(p, n, light) };
         }
-        self.pmf_portable(p, n, light, None)
+        self.pmf_portable(p, n, light)
     }
 
     /// [`pmf`](Self::pmf) compiled for AVX2 (the same arithmetic: no FMA
@@ -224,12 +210,11 @@ impl LightBvh {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
     unsafe fn pmf_avx2(&self, p: Vec3, n: Vec3, light: usize) -> f64 {
-        self.pmf_portable(p, n, light, None)
+        self.pmf_portable(p, n, light)
     }
 
-    /// The walk of `pmf`; `root`, when given, stands for the root's importances.
     #[inline(always)]
-    fn pmf_portable(&self, p: Vec3, n: Vec3, light: usize, root: Option<Importances>) -> f64 {
+    fn pmf_portable(&self, p: Vec3, n: Vec3, light: usize) -> f64 {
         if light >= self.lights || !is_finite(p, n) {
             return 0.0;
         }
@@ -237,11 +222,7 @@ impl LightBvh {
         let mut index = 0;
         let mut pmf = 1.0;
         loop {
-            let found = match (index, root) {
-                (0, Some(root)) => Some(root),
-                _ => self.importances(index, p, n),
-            };
-            let Some((importances, total)) = found else {
+            let Some((importances, total)) = self.importances(index, p, n) else {
                 return 0.0;
             };
             let node = &self.nodes[index];

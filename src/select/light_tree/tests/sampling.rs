@@ -243,7 +243,7 @@ fn leaf_depth(bvh: &LightBvh, light: usize) -> usize {
 }
 
 #[test]
-fn a_root_evaluated_first_gives_the_same_choices_and_pmfs() {
+fn a_root_evaluated_first_gives_the_same_choices() {
     let mut rng = Rand::new(12);
     let scene = random_scene(&mut rng, 300);
     let (bvh, _) = LightBvh::build(&scene.bounds);
@@ -262,9 +262,7 @@ fn a_root_evaluated_first_gives_the_same_choices_and_pmfs() {
             let below = bvh.sample_below(&root, p, n, u);
             assert_eq!(below, bvh.sample(p, n, u), "p {p} n {n} u {u}");
             if let Some((light, pmf)) = below {
-                let again = bvh.pmf_below(&root, p, n, light);
-                assert_eq!(again.to_bits(), pmf.to_bits());
-                assert_eq!(again.to_bits(), bvh.pmf(p, n, light).to_bits());
+                assert_eq!(pmf.to_bits(), bvh.pmf(p, n, light).to_bits());
             }
         }
     }
