@@ -15,7 +15,7 @@ use std::arch::x86_64::*;
 use glam::UVec2;
 use obvhs::ray::Ray;
 
-use super::{node_avx2, Accel, Hit, TestTriangle, NODE_CULL_GUARD, PACKET};
+use super::{node_avx2, Accel, Hit, TestTriangle, PACKET};
 
 /// Eight rays, one lane each: origin, direction, and the nearest hit so far.
 struct Lanes {
@@ -77,12 +77,7 @@ impl Accel {
         _mm256_storeu_ps(b1.as_mut_ptr(), lanes.b1);
         _mm256_storeu_ps(b2.as_mut_ptr(), lanes.b2);
         for (i, (hit, ray)) in hits.iter_mut().zip(rays.iter()).enumerate() {
-            *hit = (slot[i] >= 0).then(|| Hit {
-                triangle: self.bvh.primitive_indices[slot[i] as usize],
-                t: ray.tmax - NODE_CULL_GUARD,
-                b1: b1[i],
-                b2: b2[i],
-            });
+            *hit = (slot[i] >= 0).then(|| self.hit(slot[i] as u32, ray.tmax, b1[i], b2[i]));
         }
     }
 }

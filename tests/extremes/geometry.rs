@@ -53,15 +53,7 @@ fn shading_point_a_micrometre_below_a_large_emitter_gets_pi_l() {
     for (label, emitter) in [("one triangle", single), ("fan of six", fan)] {
         let mut tris = square(Vec3::ZERO, 1.0, true, 0).to_vec();
         tris.extend(emitter);
-        let scene = Scene::new(
-            tris,
-            vec![
-                lambert_receiver(),
-                Material::emitter(Vec3::splat(1.0), false),
-            ],
-            None,
-        )
-        .unwrap();
+        let scene = receiver_under(tris, vec![Material::emitter(Vec3::splat(1.0), false)]);
         let expected = lambert_radiance(&scene, target, Vec3::Z);
         assert!(
             (expected - RHO as f64).abs() < 1e-5,
@@ -91,15 +83,7 @@ fn grazing_emission_and_reception_stay_finite_and_match_lambert() {
     };
     let mut tris = square(Vec3::ZERO, 2.0, true, 0).to_vec();
     tris.extend(wall(-1.0, 1.0));
-    let scene = Scene::new(
-        tris,
-        vec![
-            lambert_receiver(),
-            Material::emitter(Vec3::splat(4.0), false),
-        ],
-        None,
-    )
-    .unwrap();
+    let scene = receiver_under(tris, vec![Material::emitter(Vec3::splat(4.0), false)]);
     assert!(
         scene.triangles[2].geometric_normal().x < 0.0,
         "wall faces −X"
@@ -199,15 +183,7 @@ fn lit_plane(extent: f32, light: f32, centres: &[Vec3], radiance: f32) -> Scene 
     for &c in centres {
         tris.extend(square(c, light, false, 1));
     }
-    Scene::new(
-        tris,
-        vec![
-            lambert_receiver(),
-            Material::emitter(Vec3::splat(radiance), false),
-        ],
-        None,
-    )
-    .unwrap()
+    receiver_under(tris, vec![Material::emitter(Vec3::splat(radiance), false)])
 }
 
 #[test]
@@ -291,16 +267,13 @@ fn tenth_of_a_millimetre_scene_matches_lambert_without_leaks_or_self_shadowing()
             Vec3::new(1.001, -0.5, 1.5),
             2,
         ));
-        let scene = Scene::new(
+        let scene = receiver_under(
             tris,
             vec![
-                lambert_receiver(),
                 Material::emitter(Vec3::splat(5.0), false),
                 Material::emitter(Vec3::splat(1e4), true),
             ],
-            None,
-        )
-        .unwrap();
+        );
         scaled(&scene, s)
     };
     for s in [1.0f32, 1e-4] {

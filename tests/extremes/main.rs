@@ -150,3 +150,12 @@ pub(crate) fn lambert_range(scene: &Scene, target: Vec3, extent: f32) -> (f64, f
 pub(crate) fn lambert_receiver() -> Material {
     Material::lambert(Vec3::splat(RHO))
 }
+
+/// A scene of `tris` whose material 0 is the Lambertian receiver and materials 1.. are
+/// `emitters`, without camera.
+pub(crate) fn receiver_under(tris: Vec<Triangle>, emitters: Vec<Material>) -> Scene {
+    let materials = std::iter::once(lambert_receiver())
+        .chain(emitters)
+        .collect();
+    Scene::new(tris, materials, None).unwrap()
+}

@@ -69,16 +69,13 @@ fn overflowing_powers_stay_finite_in_every_selector() {
     let mut tris = square(Vec3::ZERO, 3.0, true, 0).to_vec();
     tris.extend(square(Vec3::new(0.0, 0.0, 1.0), 1e4, false, 1));
     tris.extend(square(Vec3::new(0.5, 0.0, 0.5), 0.1, false, 2));
-    let scene = Scene::new(
+    let scene = receiver_under(
         tris,
         vec![
-            lambert_receiver(),
             Material::emitter(Vec3::splat(3e38), false),
             Material::emitter(Vec3::splat(1e-30), false),
         ],
-        None,
-    )
-    .unwrap();
+    );
     let ctx = ShadingContext {
         p: Vec3::new(0.1, 0.0, 0.0),
         n: Vec3::Z,
@@ -119,16 +116,13 @@ fn a_million_lights_where_one_holds_99_99_percent_of_the_power() {
         ],
         2,
     ));
-    let scene = Scene::new(
+    let scene = receiver_under(
         tris,
         vec![
-            lambert_receiver(),
             Material::emitter(Vec3::ONE, false),
             Material::emitter(Vec3::splat(bright_l), false),
         ],
-        None,
-    )
-    .unwrap();
+    );
     let mut lights = Lights::from_scene(&scene);
     assert_eq!(lights.len(), count as usize);
     let powers = lights.powers();
@@ -168,15 +162,10 @@ fn lights_that_all_have_zero_power_render_black_without_nan() {
     let mut tris = square(Vec3::ZERO, 3.0, true, 0).to_vec();
     tris.extend(square(Vec3::new(0.0, 0.0, 1.0), 0.5, false, 1));
     tris.extend(square(Vec3::new(1.0, 0.0, 1.0), 0.5, false, 1));
-    let scene = Scene::new(
+    let scene = receiver_under(
         tris,
-        vec![
-            lambert_receiver(),
-            Material::emitter(Vec3::new(1e-45, 0.0, 0.0), true),
-        ],
-        None,
-    )
-    .unwrap();
+        vec![Material::emitter(Vec3::new(1e-45, 0.0, 0.0), true)],
+    );
     let mut lights = Lights::from_scene(&scene);
     assert_eq!(lights.len(), 4);
     assert!(lights.powers().iter().all(|&p| p == 0.0), "premise");

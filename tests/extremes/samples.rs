@@ -53,15 +53,7 @@ fn solid_angle_sampling_is_unbiased_at_and_around_its_thresholds() {
         let v = corners.map(|c| Vec3::new(c.x as f32, c.y as f32, z));
         let mut tris = square(Vec3::ZERO, 4.0, true, 0).to_vec();
         tris.push(Triangle::flat([v[0], v[2], v[1]], 1));
-        let scene = Scene::new(
-            tris,
-            vec![
-                lambert_receiver(),
-                Material::emitter(Vec3::splat(1.0), false),
-            ],
-            None,
-        )
-        .unwrap();
+        let scene = receiver_under(tris, vec![Material::emitter(Vec3::splat(1.0), false)]);
         let target = Vec3::ZERO;
         let expected = lambert_radiance(&scene, target, Vec3::Z);
         let eye = Vec3::new(0.0, 0.0, 0.5 * z);
@@ -121,16 +113,13 @@ fn fireflies_are_counted_where_a_rare_light_dominates_and_never_in_a_constant_sc
     .unwrap();
     let l_bright = (e_dim / lambert_radiance(&bright_alone, Vec3::ZERO, Vec3::Z)) as f32;
     tris.push(Triangle::flat(bright, 2));
-    let scene = Scene::new(
+    let scene = receiver_under(
         tris,
         vec![
-            lambert_receiver(),
             Material::emitter(Vec3::ONE, false),
             Material::emitter(Vec3::splat(l_bright), false),
         ],
-        None,
-    )
-    .unwrap();
+    );
     let prepared = PreparedScene::new(scene, SelectorKind::Uniform);
     let estimator = prepared.estimator(Strategy::LightArea, 1, 1);
     let camera = look_at(Vec3::new(0.0, 0.0, 0.5), Vec3::ZERO, 0.01);
