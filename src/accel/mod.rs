@@ -14,14 +14,15 @@
 //! infinite or NaN weight and fails the tests.
 
 use glam::{UVec2, Vec3, Vec3A};
-use obvhs::cwbvh::{builder::build_cwbvh_from_tris, node::CwBvhNode, CwBvh};
+use obvhs::cwbvh::{node::CwBvhNode, CwBvh};
 use obvhs::ray::Ray;
-use obvhs::triangle::Triangle as BvhTriangle;
-use obvhs::BvhBuildParams;
 
 use crate::cpu::has_avx2_fma;
 use crate::scene::Scene;
+use build::{build_bvh, PART_MAX_TRIANGLES};
 
+mod build;
+mod cut;
 #[cfg(target_arch = "x86_64")]
 mod node_avx2;
 #[cfg(target_arch = "x86_64")]
@@ -91,21 +92,12 @@ pub struct Accel {
 
 impl Accel {
     pub fn build(scene: &Scene) -> Accel {
-        let tris: Vec<BvhTriangle> = scene
-            .triangles
-            .iter()
-            .map(|t| BvhTriangle {
-                v0: t.positions[0].into(),
-                v1: t.positions[1].into(),
-                v2: t.positions[2].into(),
-            })
-            .collect();
-        let bvh = build_cwbvh_from_tris(
-            &tris,
-            build_preset(tris.len()),
-            &mut std::time::Duration::default(),
-        );
-        drop(tris);
+        Accel::build_in_parts(scene, PART_MAX_TRIANGLES)
+    }
+
+    /// [`build`](Self::build) with parts of at most `part_max` triangles (see `build.rs`).
+    fn build_in_parts(scene: &Scene, part_max: usize) -> Accel {
+        let bvh = build_bvh(scene, part_max);
         let triangles = bvh
             .primitive_indices
             .iter()
@@ -274,21 +266,6 @@ impl Accel {
     }
 }
 
-/// Up to this many triangles the BVH is built with obvhs's most thorough preset (pre-splitting,
-/// reinsertion over all nodes); larger scenes use the medium preset, whose build time stays near
-/// linear. Town (12k triangles): 73 ms against 15 ms to build, rays/s +13 to +35% with the new
-/// triangle test (`cargo bench --bench rays`, thread CPU time); on the 50k city (97k triangles)
-/// the thorough build took 513 ms against 159 ms for a gain within the noise, so it stops here.
-const THOROUGH_BUILD_MAX_TRIANGLES: usize = 1 << 15;
-
-fn build_preset(triangles: usize) -> BvhBuildParams {
-    if triangles <= THOROUGH_BUILD_MAX_TRIANGLES {
-        BvhBuildParams::very_slow_build()
-    } else {
-        BvhBuildParams::medium_build()
-    }
-}
-
 /// obvhs's node test clamps a child box's entry distance to a fixed 1e-4 (ignoring
 /// `ray.tmin`), so a box the ray leaves within 1e-4 of its origin is culled: a wall 5e-5 m
 /// from a shading point near a corner would not block its shadow rays. Every ray therefore
@@ -407,20 +384,20 @@ mod tests {
         best
     }
 
-    fn tris_centre(scene: &Scene, i: usize) -> Vec3 {
+    pub(super) fn tris_centre(scene: &Scene, i: usize) -> Vec3 {
         let [a, b, c] = scene.triangles[i.min(scene.triangles.len() - 1)].positions;
         (a + b + c) / 3.0
     }
 
     /// Uniform numbers in [0, 1) from a fixed seed.
-    fn uniforms(seed: u64) -> impl FnMut() -> f32 {
+    pub(super) fn uniforms(seed: u64) -> impl FnMut() -> f32 {
         use rand_core::{Rng, SeedableRng};
         let mut rng = rand_pcg::Pcg32::seed_from_u64(seed);
         move || (rng.next_u32() >> 8) as f32 / (1u32 << 24) as f32
     }
 
     /// `count` random triangles of about `size` m, centred in the cube [0, 10]³.
-    fn triangle_soup(u: &mut impl FnMut() -> f32, count: usize, size: f32) -> Scene {
+    pub(super) fn triangle_soup(u: &mut impl FnMut() -> f32, count: usize, size: f32) -> Scene {
         let tris = (0..count)
             .map(|_| {
                 let c = Vec3::new(u(), u(), u()) * 10.0;

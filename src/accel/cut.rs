@@ -1,0 +1,170 @@
+//! Cutting a large scene's triangles into parts for the BVH build (`build.rs`): binned
+//! surface-area-heuristic splits over the triangles' box centres (Wald, "On fast Construction of
+//! SAH-based Bounding Volume Hierarchies", 2007), as a top-down builder makes its top levels.
+//! A cut minimises A(left)·N(left) + A(right)·N(right) over 32 bins per axis, A the surface area
+//! of a side's box and N its triangle count.
+
+use glam::Vec3;
+
+/// Bins per axis.
+const BINS: usize = 32;
+
+/// A triangle's bounding box and its id in the scene.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Item {
+    pub(super) lo: Vec3,
+    pub(super) hi: Vec3,
+    pub(super) id: u32,
+}
+
+impl Item {
+    fn centre(&self) -> Vec3 {
+        (self.lo + self.hi) * 0.5
+    }
+}
+
+/// A box and the number of items in it.
+#[derive(Clone, Copy)]
+struct Bin {
+    lo: Vec3,
+    hi: Vec3,
+    count: usize,
+}
+
+impl Bin {
+    const EMPTY: Bin = Bin {
+        lo: Vec3::INFINITY,
+        hi: Vec3::NEG_INFINITY,
+        count: 0,
+    };
+
+    fn add(self, other: Bin) -> Bin {
+        Bin {
+            lo: self.lo.min(other.lo),
+            hi: self.hi.max(other.hi),
+            count: self.count + other.count,
+        }
+    }
+
+    /// Surface area × count (0 for an empty bin).
+    fn cost(&self) -> f64 {
+        if self.count == 0 {
+            return 0.0;
+        }
+        let d = (self.hi - self.lo).as_dvec3();
+        2.0 * (d.x * d.y + d.y * d.z + d.z * d.x) * self.count as f64
+    }
+}
+
+/// Reorders `items` (at least two) into two non-empty halves by the cheapest binned SAH split,
+/// or by the median along the widest axis where every centre falls in one bin; returns the
+/// length of the first half. The same items in the same order always give the same cut.
+pub(super) fn sah_cut(items: &mut [Item]) -> usize {
+    let (lo, hi) = items
+        .iter()
+        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), item| {
+            (lo.min(item.centre()), hi.max(item.centre()))
+        });
+    let bin_of = |axis: usize, item: &Item| {
+        let t = (item.centre()[axis] - lo[axis]) / (hi[axis] - lo[axis]);
+        ((t * BINS as f32) as usize).min(BINS - 1)
+    };
+    let mut best: Option<(f64, usize, usize)> = None;
+    for axis in 0..3 {
+        if hi[axis] <= lo[axis] {
+            continue;
+        }
+        let mut bins = [Bin::EMPTY; BINS];
+        for item in items.iter() {
+            let bin = &mut bins[bin_of(axis, item)];
+            *bin = bin.add(Bin {
+                lo: item.lo,
+                hi: item.hi,
+                count: 1,
+            });
+        }
+        // right[k]: bins k.. together.
+        let mut right = [Bin::EMPTY; BINS];
+        let mut sum = Bin::EMPTY;
+        for k in (1..BINS).rev() {
+            sum = sum.add(bins[k]);
+            right[k] = sum;
+        }
+        let mut left = Bin::EMPTY;
+        for k in 1..BINS {
+            left = left.add(bins[k - 1]);
+            if left.count == 0 || right[k].count == 0 {
+                continue;
+            }
+            let cost = left.cost() + right[k].cost();
+            if best.is_none_or(|(c, _, _)| cost < c) {
+                best = Some((cost, axis, k));
+            }
+        }
+    }
+    match best {
+        Some((_, axis, k)) => partition(items, |item| bin_of(axis, item) < k),
+        None => median_cut(items, (hi - lo).max_position()),
+    }
+}
+
+/// Moves the items for which `first` holds to the front; returns how many there are.
+fn partition(items: &mut [Item], first: impl Fn(&Item) -> bool) -> usize {
+    let mut front = 0;
+    for k in 0..items.len() {
+        if first(&items[k]) {
+            items.swap(front, k);
+            front += 1;
+        }
+    }
+    front
+}
+
+/// The median cut along `axis` (ties broken by id).
+fn median_cut(items: &mut [Item], axis: usize) -> usize {
+    let mid = items.len() / 2;
+    items.select_nth_unstable_by(mid, |a, b| {
+        a.centre()[axis]
+            .total_cmp(&b.centre()[axis])
+            .then(a.id.cmp(&b.id))
+    });
+    mid
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn item(x: f32, size: f32, id: u32) -> Item {
+        Item {
+            lo: Vec3::new(x, 0.0, 0.0),
+            hi: Vec3::new(x + size, size, size),
+            id,
+        }
+    }
+
+    #[test]
+    fn the_cut_falls_in_the_gap_between_two_clusters() {
+        // 300 small boxes near x = 0..1 and 100 near x = 10..11: the cheapest cut separates them
+        // (a median cut would split the larger cluster).
+        let mut items: Vec<Item> = (0..400)
+            .map(|i| {
+                let x = if i % 4 == 0 { 10.0 } else { 0.0 } + (i as f32 * 0.618).fract();
+                item(x, 0.01, i)
+            })
+            .collect();
+        let mid = sah_cut(&mut items);
+        assert_eq!(mid, 300);
+        assert!(items[..mid].iter().all(|it| it.lo.x < 5.0));
+        assert!(items[mid..].iter().all(|it| it.lo.x > 5.0));
+    }
+
+    #[test]
+    fn boxes_with_one_centre_are_cut_in_half() {
+        let mut items: Vec<Item> = (0..9).map(|i| item(1.0, 1.0, 8 - i)).collect();
+        assert_eq!(sah_cut(&mut items), 4);
+        let mut ids: Vec<u32> = items.iter().map(|it| it.id).collect();
+        ids.sort();
+        assert_eq!(ids, (0..9).collect::<Vec<_>>());
+    }
+}
