@@ -140,19 +140,30 @@ impl Lights {
     /// relative order after them. (The light BVH wants its leaves' lights contiguous.)
     pub fn reorder(&mut self, order: &[u32]) {
         let mut named = vec![false; self.lights.len()];
-        let mut next: Vec<Light> = Vec::with_capacity(self.lights.len());
         for &i in order {
             named[i as usize] = true;
-            next.push(self.lights[i as usize].clone());
         }
-        next.extend(
-            self.lights
-                .iter()
-                .zip(&named)
-                .filter(|(_, n)| !**n)
-                .map(|(l, _)| l.clone()),
-        );
-        self.lights = next;
+        // Light k becomes light source[k]; applied in place, cycle by cycle (a second list of a
+        // million lights would add 72 MB to the light tree's peak).
+        let source: Vec<u32> = order
+            .iter()
+            .copied()
+            .chain((0..self.lights.len() as u32).filter(|&i| !named[i as usize]))
+            .collect();
+        let mut placed = named;
+        placed.fill(false);
+        for start in 0..source.len() {
+            let mut k = start;
+            while !placed[k] {
+                placed[k] = true;
+                let from = source[k] as usize;
+                if from == start {
+                    break;
+                }
+                self.lights.swap(k, from);
+                k = from;
+            }
+        }
         let triangles = self.light_of_triangle.len();
         self.index_triangles(triangles);
     }

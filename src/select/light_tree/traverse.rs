@@ -34,10 +34,18 @@ impl LightBvh {
     /// order: the caller reorders its lights so that light `order[k]` becomes
     /// light k, the id used by [`sample`](Self::sample) and [`pmf`](Self::pmf).
     pub fn build(bounds: &[LightBounds]) -> (LightBvh, Vec<u32>) {
-        let mut prims: Vec<Prim> = bounds
-            .par_iter()
-            .enumerate()
-            .map(|(i, b)| Prim::new(i, b).unwrap_or(Prim::LEFT_OUT))
+        LightBvh::build_with(bounds.len(), |i| bounds[i])
+    }
+
+    /// [`build`](Self::build) over `count` lights whose bounds `bounds_of(i)` gives, asked
+    /// once per light (in parallel).
+    pub fn build_with(
+        count: usize,
+        bounds_of: impl Fn(usize) -> LightBounds + Sync,
+    ) -> (LightBvh, Vec<u32>) {
+        let mut prims: Vec<Prim> = (0..count)
+            .into_par_iter()
+            .map(|i| Prim::new(i, &bounds_of(i)).unwrap_or(Prim::LEFT_OUT))
             .collect();
         prims.retain(|p| p.phi > 0.0);
         let (boxes, centroids) = prims
@@ -61,10 +69,11 @@ impl LightBvh {
             };
             tree.build(&grid, centroids);
         }
-        let order = prims.iter().map(|p| p.id).collect();
+        let order: Vec<u32> = prims.iter().map(|p| p.id).collect();
+        drop(prims);
         let tree = LightBvh {
             nodes: collapse(&nodes, &grid),
-            lights: prims.len(),
+            lights: order.len(),
             avx2: has_avx2_fma(),
         };
         (tree, order)

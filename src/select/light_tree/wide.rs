@@ -93,7 +93,10 @@ pub(super) fn collapse(binary: &[Node], grid: &Grid) -> Vec<WideNode> {
     if binary.is_empty() {
         return Vec::new();
     }
-    let mut wide = Vec::with_capacity(binary.len() / (LANES - 1) + 1);
+    // Sized exactly: the nodes are over-aligned, so growing or shrinking the list copies it
+    // (the system allocator's realloc does not keep a 64-byte alignment), which for a million
+    // lights held 132 MB twice.
+    let mut wide = Vec::with_capacity(count_wide(binary));
     wide.push(WideNode::empty());
     let mut pending = vec![(Lane { index: 0, first: 0 }, 0)];
     while let Some((start, slot)) = pending.pop() {
@@ -112,8 +115,23 @@ pub(super) fn collapse(binary: &[Node], grid: &Grid) -> Vec<WideNode> {
         }
         wide[slot] = node;
     }
-    wide.shrink_to_fit();
+    debug_assert_eq!(wide.len(), wide.capacity());
     wide
+}
+
+/// How many wide nodes [`collapse`] makes: one for the root and one per interior lane.
+fn count_wide(binary: &[Node]) -> usize {
+    let mut count = 1;
+    let mut pending = vec![Lane { index: 0, first: 0 }];
+    while let Some(start) = pending.pop() {
+        for lane in open(binary, start).into_iter().flatten() {
+            if !binary[lane.index].is_leaf() {
+                count += 1;
+                pending.push(lane);
+            }
+        }
+    }
+    count
 }
 
 /// The lanes of the wide node rooted at binary node `start`: `start` itself
