@@ -4,12 +4,15 @@
 //! allocate half-way through the BVH build.
 //!
 //! The model is peak resident memory ≈ BASE + file + T·B_tri + E·(B_light + B_select) + P·B_px
-//! for T triangles, E emissive triangles and P film pixels. B_tri covers the scene's triangle,
-//! the geometry BVH and its builder's temporaries; it was fitted to the peak RSS
-//! (`/usr/bin/time -f %M`) of `render --width 64 --height 48 --spp 1 --selector power` on
-//! `gen city --lights 1000000` (1,949,154 triangles: 733 MB) and checks within 1% on the 100k
-//! city (79.4 MB measured, 79.5 estimated) and within 7% on scenes/town.glb. The terms are
-//! summed although the BVH build and the film are not alive at once, so the estimate errs high.
+//! for T triangles, E emissive triangles and P film pixels. B_tri is what a triangle holds
+//! after the build (scene triangle and ray accelerator); the geometry BVH's build temporaries
+//! are bounded by building it in parts (`src/accel/build.rs`) and fall within the other terms,
+//! which are summed although the file, the builds and the film are not alive at once. B_select is
+//! the light BVH's build peak per light. Fitted to the peak RSS (`/usr/bin/time -f %M`) of
+//! `render --width 64 --height 48 --spp 1 --selector bvh` (the selector that needs most): exact
+//! on scenes/town.glb (14.0 MB), and above the measured peak on `gen city` with 50k lights (43.3
+//! MB estimated, 41.0 measured), 100k (79.0 against 74.3) and 1M (721 against 580; 421 with
+//! `--selector power`).
 
 use std::collections::HashSet;
 
@@ -17,16 +20,18 @@ use gltf::mesh::Mode;
 
 /// Resident memory of the program with a tiny scene (cornell: 6.8 MB peak).
 const BASE_BYTES: u64 = 7 << 20;
-/// Scene triangle (100 B) + geometry BVH and its build temporaries, per triangle.
-pub const BYTES_PER_TRIANGLE: u64 = 283;
+/// Scene triangle (100 B) + the geometry BVH's nodes, primitive index and 36-byte test
+/// triangle (49 B on the 1M city), per triangle.
+pub const BYTES_PER_TRIANGLE: u64 = 150;
 /// One `Light` (72 B) per emissive triangle.
 pub const BYTES_PER_LIGHT: u64 = 72;
 /// Film statistics (64 B) and the f32 mean and variance written out (24 B), per pixel.
 pub const BYTES_PER_PIXEL: u64 = 88;
 
-/// The light selector's bytes per emitter, for the largest one: the light BVH (132 B per light
-/// on the 1M city; the alias table needs 16 B).
-pub const SELECTOR_BYTES_PER_LIGHT: u64 = 132;
+/// The light selector's bytes per emitter, for the largest one: the light BVH's build peak (its
+/// 8-wide nodes, 132 B per light on the 1M city, with the binary build tree beside them), fitted
+/// on the town; the alias table needs 16 B.
+pub const SELECTOR_BYTES_PER_LIGHT: u64 = 262;
 
 /// What the budget check needs besides the file: the budget and the film's size.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -266,13 +271,13 @@ mod tests {
             emitters: 10,
             pixels: 100,
         };
-        let parts = 7 * 1024 * 1024 + 50 + 1_000_000 * 283 + 10 * (72 + 132) + 100 * 88;
+        let parts = 7 * 1024 * 1024 + 50 + 1_000_000 * 150 + 10 * (72 + 262) + 100 * 88;
         assert_eq!(e.total(), parts);
         assert_eq!(
             e.describe(),
-            "an estimated 290 MB, mostly geometry and BVH (geometry and BVH 283 MB for 1000000 \
-             triangles at 283 B; program 7.34 MB; film 8.80 kB for 100 pixels at 88 B; lights \
-             2.04 kB for 10 emitters at 204 B; file 50 B)"
+            "an estimated 157 MB, mostly geometry and BVH (geometry and BVH 150 MB for 1000000 \
+             triangles at 150 B; program 7.34 MB; film 8.80 kB for 100 pixels at 88 B; lights \
+             3.34 kB for 10 emitters at 334 B; file 50 B)"
         );
         let huge = MemoryEstimate {
             triangles: u64::MAX,
