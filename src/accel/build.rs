@@ -2,15 +2,17 @@
 //! Bittner 2018), reinsertion, then conversion to the compressed 8-wide layout (CWBVH, Ylitie,
 //! Karras & Laine 2017).
 //!
-//! Large scenes are built in parts: the triangles are cut by median splits of their centroids
-//! (largest axis first, three cuts to a level, so eight groups) until a group has at most
-//! `part_max` triangles; each part gets its own CWBVH, one after the other, and the parts are
-//! joined under CWBVH nodes of our own whose child boxes are quantised the way obvhs quantises
-//! them (rounded outwards on the node's power-of-two grid). Only one part's builder temporaries
-//! are alive at a time, which is what bounds peak memory; the median cuts cost about what a
-//! binned top-level split costs in traversal (`cargo bench --bench rays`, city1m).
+//! Large scenes are built in parts: the triangles are cut by binned-SAH splits (`cut.rs`) until
+//! every group has at most `part_max` triangles; each part gets its own CWBVH, two parts at a
+//! time, and the parts are joined under CWBVH nodes of our own whose child boxes are quantised
+//! the way obvhs quantises them (rounded outwards on the node's power-of-two grid). Only two
+//! parts' builder temporaries are alive at once, which bounds peak memory (1M city: 733 → 411
+//! MB) and the build takes both cores (1.6–2.3 → 0.8 s); rays cost what they cost in one tree
+//! built whole (`cargo bench --bench rays`, city1m: −9 to +5%; median cuts lost 13–27%).
 
 use std::ops::Range;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::OnceLock;
 
 use glam::{UVec3, Vec3, Vec3A};
 use obvhs::aabb::Aabb;
@@ -22,6 +24,7 @@ use obvhs::triangle::Triangle as BvhTriangle;
 use obvhs::BvhBuildParams;
 use rayon::prelude::*;
 
+use crate::scene::memory::{BVH_PARTS_AT_ONCE, BVH_PART_MAX_TRIANGLES};
 use crate::scene::Scene;
 
 use super::cut::{sah_cut, Item};
@@ -33,11 +36,12 @@ use super::cut::{sah_cut, Item};
 /// the thorough build took 513 ms against 159 ms for a gain within the noise, so it stops here.
 const THOROUGH_BUILD_MAX_TRIANGLES: usize = 1 << 15;
 
-/// Largest part built as one CWBVH. Its builder holds about 270 B per triangle (PLOC's node
-/// buffers and Morton codes, the binary BVH, the conversion's decision table), so a part costs
-/// at most ~70 MB of temporaries; and below 4M elements obvhs's parallel radix sorts are stable
-/// or single-threaded, so a part's tree never depends on the number of threads.
-pub(super) const PART_MAX_TRIANGLES: usize = 1 << 17;
+/// Largest part built as one CWBVH (the memory model's, `crate::scene::memory`): its builder
+/// holds about 210 B per triangle (PLOC's node buffers and Morton codes, the binary BVH, the
+/// conversion's decision table), so a part costs at most ~28 MB of temporaries; and below 4M
+/// elements obvhs's parallel radix sorts are stable or single-threaded, so a part's tree never
+/// depends on the number of threads.
+pub(super) const PART_MAX_TRIANGLES: usize = BVH_PART_MAX_TRIANGLES as usize;
 
 /// Children of a CWBVH node.
 const WIDTH: usize = 8;
@@ -150,13 +154,43 @@ impl Plan {
         )
     }
 
-    /// Builds the parts, as many at once as rayon has threads.
+    /// Builds the parts, [`BVH_PARTS_AT_ONCE`] at a time in parallel, so that no more of their
+    /// builders' memory is alive at once, whatever the number of threads: that many workers each
+    /// take the next part until none is left (inside a part obvhs uses every thread).
     fn build(&self, scene: &Scene, ids: &[u32]) -> Built {
-        match self {
-            Plan::Part(range) => Built::Part(build_part(scene, &ids[range.clone()])),
-            Plan::Join(children) => {
-                Built::Join(children.par_iter().map(|c| c.build(scene, ids)).collect())
+        let mut ranges = Vec::new();
+        self.for_each_part(&mut |range| ranges.push(range));
+        let parts: Vec<OnceLock<CwBvh>> = ranges.iter().map(|_| OnceLock::new()).collect();
+        let next = AtomicUsize::new(0);
+        rayon::scope(|scope| {
+            for _ in 0..BVH_PARTS_AT_ONCE {
+                scope.spawn(|_| loop {
+                    let k = next.fetch_add(1, Ordering::Relaxed);
+                    let Some(range) = ranges.get(k) else { break };
+                    let built = build_part(scene, &ids[range.clone()]);
+                    assert!(parts[k].set(built).is_ok(), "each part is built once");
+                });
             }
+        });
+        let mut parts = parts
+            .into_iter()
+            .map(|part| part.into_inner().expect("every part is built"));
+        self.attach(&mut parts)
+    }
+
+    /// Calls `f` with every part's range, in order.
+    fn for_each_part(&self, f: &mut impl FnMut(Range<usize>)) {
+        match self {
+            Plan::Part(range) => f(range.clone()),
+            Plan::Join(children) => children.iter().for_each(|c| c.for_each_part(f)),
+        }
+    }
+
+    /// The plan with its parts, given in order.
+    fn attach(&self, parts: &mut impl Iterator<Item = CwBvh>) -> Built {
+        match self {
+            Plan::Part(_) => Built::Part(parts.next().expect("a tree per part")),
+            Plan::Join(children) => Built::Join(children.iter().map(|c| c.attach(parts)).collect()),
         }
     }
 }

@@ -3,16 +3,16 @@
 //! for the machine or for `--max-memory` is refused with the estimate instead of failing to
 //! allocate half-way through the BVH build.
 //!
-//! The model is peak resident memory ≈ BASE + file + T·B_tri + E·(B_light + B_select) + P·B_px
-//! for T triangles, E emissive triangles and P film pixels. B_tri is what a triangle holds
-//! after the build (scene triangle and ray accelerator); the geometry BVH's build temporaries
-//! are bounded by building it in parts (`src/accel/build.rs`) and fall within the other terms,
-//! which are summed although the file, the builds and the film are not alive at once. B_select is
-//! the light BVH's build peak per light. Fitted to the peak RSS (`/usr/bin/time -f %M`) of
-//! `render --width 64 --height 48 --spp 1 --selector bvh` (the selector that needs most): exact
-//! on scenes/town.glb (14.0 MB), and above the measured peak on `gen city` with 50k lights (43.3
-//! MB estimated, 41.0 measured), 100k (79.0 against 74.3) and 1M (721 against 580; 421 with
-//! `--selector power`).
+//! The model is peak resident memory ≈ BASE + file + T·B_tri + B_build·min(T, 2·2^17) +
+//! E·(B_light + B_select) + P·B_px for T triangles, E emissive triangles and P film pixels.
+//! B_tri is what a triangle holds after the build (scene triangle and ray accelerator); the
+//! geometry BVH is built in parts of at most 2^17 triangles, two at a time
+//! (`src/accel/build.rs`), whose builders hold B_build per triangle; B_select is the light BVH's
+//! build peak per light. The terms are summed although the file, the two builds and the film are
+//! not alive at once, so the estimate errs high: against the peak RSS (`/usr/bin/time -f %M`) of
+//! `render --width 64 --height 48 --spp 1 --selector bvh` (the selector that needs most) it gives
+//! 16.8 MB for scenes/town.glb (14.0 measured) and, for `gen city`, 65.1 MB with 50k lights
+//! (41.0), 123 MB with 100k (74.3) and 779 MB with 1M (580; 421 with `--selector power`).
 
 use std::collections::HashSet;
 
@@ -25,6 +25,12 @@ const BASE_BYTES: u64 = 7 << 20;
 pub const BYTES_PER_TRIANGLE: u64 = 150;
 /// One `Light` (72 B) per emissive triangle.
 pub const BYTES_PER_LIGHT: u64 = 72;
+/// The geometry BVH's builder per triangle of the parts being built (measured ~210 B).
+pub const BYTES_PER_TRIANGLE_BUILT: u64 = 224;
+/// The geometry BVH is built in parts of at most this many triangles…
+pub const BVH_PART_MAX_TRIANGLES: u64 = 1 << 17;
+/// …this many at a time (`src/accel/build.rs`).
+pub const BVH_PARTS_AT_ONCE: u64 = 2;
 /// Film statistics (64 B) and the f32 mean and variance written out (24 B), per pixel.
 pub const BYTES_PER_PIXEL: u64 = 88;
 
@@ -56,6 +62,12 @@ impl MemoryEstimate {
         self.triangles.saturating_mul(BYTES_PER_TRIANGLE)
     }
 
+    /// The geometry BVH builders' temporaries, for the parts built at once.
+    pub fn bvh_build(&self) -> u64 {
+        let at_once = BVH_PARTS_AT_ONCE * BVH_PART_MAX_TRIANGLES;
+        self.triangles.min(at_once) * BYTES_PER_TRIANGLE_BUILT
+    }
+
     pub fn lights(&self) -> u64 {
         let per_light = BYTES_PER_LIGHT + SELECTOR_BYTES_PER_LIGHT;
         self.emitters.saturating_mul(per_light)
@@ -66,9 +78,15 @@ impl MemoryEstimate {
     }
 
     pub fn total(&self) -> u64 {
-        [self.file_bytes, self.geometry(), self.lights(), self.film()]
-            .into_iter()
-            .fold(BASE_BYTES, u64::saturating_add)
+        [
+            self.file_bytes,
+            self.geometry(),
+            self.bvh_build(),
+            self.lights(),
+            self.film(),
+        ]
+        .into_iter()
+        .fold(BASE_BYTES, u64::saturating_add)
     }
 
     /// "an estimated 850 MB, mostly geometry and BVH (552 MB for 1949154 triangles at 283 B;
@@ -79,6 +97,15 @@ impl MemoryEstimate {
                 self.geometry(),
                 "geometry and BVH",
                 format!("for {} triangles at {BYTES_PER_TRIANGLE} B", self.triangles),
+            ),
+            (
+                self.bvh_build(),
+                "BVH build",
+                format!(
+                    "for {} triangles at once at {BYTES_PER_TRIANGLE_BUILT} B",
+                    self.triangles
+                        .min(BVH_PARTS_AT_ONCE * BVH_PART_MAX_TRIANGLES)
+                ),
             ),
             (
                 self.lights(),
@@ -271,13 +298,15 @@ mod tests {
             emitters: 10,
             pixels: 100,
         };
-        let parts = 7 * 1024 * 1024 + 50 + 1_000_000 * 150 + 10 * (72 + 262) + 100 * 88;
+        let parts =
+            7 * 1024 * 1024 + 50 + 1_000_000 * 150 + (1 << 18) * 224 + 10 * (72 + 262) + 100 * 88;
         assert_eq!(e.total(), parts);
         assert_eq!(
             e.describe(),
-            "an estimated 157 MB, mostly geometry and BVH (geometry and BVH 150 MB for 1000000 \
-             triangles at 150 B; program 7.34 MB; film 8.80 kB for 100 pixels at 88 B; lights \
-             3.34 kB for 10 emitters at 334 B; file 50 B)"
+            "an estimated 216 MB, mostly geometry and BVH (geometry and BVH 150 MB for 1000000 \
+             triangles at 150 B; BVH build 58.7 MB for 262144 triangles at once at 224 B; \
+             program 7.34 MB; film 8.80 kB for 100 pixels at 88 B; lights 3.34 kB for 10 \
+             emitters at 334 B; file 50 B)"
         );
         let huge = MemoryEstimate {
             triangles: u64::MAX,
