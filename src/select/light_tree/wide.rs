@@ -10,6 +10,8 @@
 //! covers a contiguous id range starting at `first`, and `pmf` can find the
 //! lane holding a light without parent links.
 
+use rayon::prelude::*;
+
 use super::*;
 
 /// Children per wide node.
@@ -80,49 +82,119 @@ impl WideNode {
     }
 }
 
-/// A binary node as a candidate lane: its index and the first id of its range.
+/// A binary node as a candidate lane: its index, the first id of its range and how many
+/// lights the range holds.
 #[derive(Clone, Copy, Debug)]
 struct Lane {
     index: usize,
     first: usize,
+    count: usize,
 }
 
-/// The wide tree of the binary depth-first tree `binary` (root at 0): wide
-/// node 0 is the root, children come after their parent.
+/// Below lanes of fewer lights the subtrees are collapsed by one rayon task each.
+const PARALLEL_COLLAPSE_MIN: usize = 1 << 14;
+
+/// The wide tree of the binary depth-first tree `binary` (root at 0): wide node 0 is the root,
+/// and a node's children come after it. The top is collapsed first, down to lanes of fewer than
+/// [`PARALLEL_COLLAPSE_MIN`] lights; the subtrees below those lanes are counted, given their
+/// ranges of the list, and collapsed into them in parallel.
 pub(super) fn collapse(binary: &[Node], grid: &Grid) -> Vec<WideNode> {
     if binary.is_empty() {
         return Vec::new();
     }
-    // Sized exactly: the nodes are over-aligned, so growing or shrinking the list copies it
-    // (the system allocator's realloc does not keep a 64-byte alignment), which for a million
-    // lights held 132 MB twice.
-    let mut wide = Vec::with_capacity(count_wide(binary));
-    wide.push(WideNode::empty());
-    let mut pending = vec![(Lane { index: 0, first: 0 }, 0)];
+    let root = Lane {
+        index: 0,
+        first: 0,
+        count: binary.len().div_ceil(2),
+    };
+    // (lane, node, lane slot) of each subtree left for later.
+    let mut deferred = Vec::new();
+    let mut wide = vec![WideNode::empty()];
+    let mut pending = vec![(root, 0)];
     while let Some((start, slot)) = pending.pop() {
-        let mut node = WideNode::empty();
-        for (k, lane) in open(binary, start).into_iter().flatten().enumerate() {
-            let b = &binary[lane.index];
-            node.set_lane(k, b, grid);
-            node.first[k] = lane.first as u32;
-            node.child[k] = if b.is_leaf() {
-                LIGHT_LANE | b.link
-            } else {
-                wide.push(WideNode::empty());
-                pending.push((lane, wide.len() - 1));
-                (wide.len() - 1) as u32
-            };
-        }
-        wide[slot] = node;
+        wide[slot] = wide_node(binary, grid, start, |k, lane| {
+            if lane.count < PARALLEL_COLLAPSE_MIN {
+                deferred.push((lane, slot, k));
+                return 0;
+            }
+            wide.push(WideNode::empty());
+            pending.push((lane, wide.len() - 1));
+            (wide.len() - 1) as u32
+        });
     }
-    debug_assert_eq!(wide.len(), wide.capacity());
+    let counts: Vec<usize> = deferred
+        .par_iter()
+        .map(|&(lane, _, _)| count_wide(binary, lane))
+        .collect();
+    // Sized once: the nodes are over-aligned, so growing or shrinking the list would copy it
+    // (the system allocator's realloc does not keep a 64-byte alignment).
+    let top = wide.len();
+    wide.reserve_exact(counts.iter().sum());
+    wide.resize(top + counts.iter().sum::<usize>(), WideNode::empty());
+    let mut blocks = Vec::with_capacity(deferred.len());
+    let mut rest = &mut wide[top..];
+    let mut base = top;
+    for (&(lane, slot, k), &count) in deferred.iter().zip(&counts) {
+        let (block, after) = rest.split_at_mut(count);
+        blocks.push((lane, block, base as u32, slot, k));
+        rest = after;
+        base += count;
+    }
+    let roots: Vec<(usize, usize, u32)> = blocks
+        .into_par_iter()
+        .map(|(lane, block, base, slot, k)| {
+            collapse_block(binary, grid, lane, block, base);
+            (slot, k, base)
+        })
+        .collect();
+    for (slot, k, base) in roots {
+        wide[slot].child[k] = base;
+    }
     wide
 }
 
-/// How many wide nodes [`collapse`] makes: one for the root and one per interior lane.
-fn count_wide(binary: &[Node]) -> usize {
+/// The wide node of lanes `open(start)`: their bounds, first ids and children, an interior
+/// lane's child index being `child(lane slot, lane)`.
+fn wide_node(
+    binary: &[Node],
+    grid: &Grid,
+    start: Lane,
+    mut child: impl FnMut(usize, Lane) -> u32,
+) -> WideNode {
+    let mut node = WideNode::empty();
+    for (k, lane) in open(binary, start).into_iter().flatten().enumerate() {
+        let b = &binary[lane.index];
+        node.set_lane(k, b, grid);
+        node.first[k] = lane.first as u32;
+        node.child[k] = if b.is_leaf() {
+            LIGHT_LANE | b.link
+        } else {
+            child(k, lane)
+        };
+    }
+    node
+}
+
+/// Collapses the subtree of lane `start` into `block` (exactly its size, from
+/// [`count_wide`]), whose first node has index `base` in the whole list.
+fn collapse_block(binary: &[Node], grid: &Grid, start: Lane, block: &mut [WideNode], base: u32) {
+    let mut used = 1;
+    let mut pending = vec![(start, 0)];
+    while let Some((start, slot)) = pending.pop() {
+        block[slot] = wide_node(binary, grid, start, |_, lane| {
+            pending.push((lane, used));
+            used += 1;
+            base + used as u32 - 1
+        });
+    }
+    debug_assert_eq!(used, block.len());
+}
+
+/// How many wide nodes the subtree of lane `start` makes: one for its root and one per
+/// interior lane below.
+fn count_wide(binary: &[Node], start: Lane) -> usize {
     let mut count = 1;
-    let mut pending = vec![Lane { index: 0, first: 0 }];
+    let mut pending = vec![start];
     while let Some(start) = pending.pop() {
         for lane in open(binary, start).into_iter().flatten() {
             if !binary[lane.index].is_leaf() {
@@ -157,10 +229,12 @@ fn open(binary: &[Node], start: Lane) -> [Option<Lane>; LANES] {
         let left = Lane {
             index: lane.index + 1,
             first: lane.first,
+            count: (node.link as usize - lane.index) / 2,
         };
         let right = Lane {
             index: node.link as usize,
             first: node.right_first(lane.index, lane.first),
+            count: lane.count - left.count,
         };
         lanes.copy_within(k + 1..used, k + 2);
         lanes[k] = Some(left);
