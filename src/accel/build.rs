@@ -148,7 +148,7 @@ impl Plan {
         }
         Plan::Join(
             groups
-                .into_iter()
+                .into_par_iter()
                 .map(|(start, group)| Plan::cut(group, start, part_max))
                 .collect(),
         )

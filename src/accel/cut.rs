@@ -5,9 +5,12 @@
 //! of a side's box and N its triangle count.
 
 use glam::Vec3;
+use rayon::prelude::*;
 
 /// Bins per axis.
 const BINS: usize = 32;
+/// Items per rayon task when binning.
+const PARALLEL_MIN_LEN: usize = 1 << 14;
 
 /// A triangle's bounding box and its id in the scene.
 #[derive(Clone, Copy, Debug)]
@@ -61,28 +64,51 @@ impl Bin {
 /// length of the first half. The same items in the same order always give the same cut.
 pub(super) fn sah_cut(items: &mut [Item]) -> usize {
     let (lo, hi) = items
-        .iter()
-        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), item| {
-            (lo.min(item.centre()), hi.max(item.centre()))
-        });
+        .par_iter()
+        .with_min_len(PARALLEL_MIN_LEN)
+        .fold(
+            || (Vec3::INFINITY, Vec3::NEG_INFINITY),
+            |(lo, hi), item| (lo.min(item.centre()), hi.max(item.centre())),
+        )
+        .reduce(
+            || (Vec3::INFINITY, Vec3::NEG_INFINITY),
+            |a, b| (a.0.min(b.0), a.1.max(b.1)),
+        );
     let bin_of = |axis: usize, item: &Item| {
         let t = (item.centre()[axis] - lo[axis]) / (hi[axis] - lo[axis]);
         ((t * BINS as f32) as usize).min(BINS - 1)
     };
+    let active = [0, 1, 2].map(|axis| hi[axis] > lo[axis]);
+    // Every axis binned in one pass; chunks binned in parallel and their bins merged (min, max
+    // and counts: the same bins in any order).
+    let bins = items
+        .par_chunks(PARALLEL_MIN_LEN)
+        .map(|chunk| {
+            let mut bins = [[Bin::EMPTY; BINS]; 3];
+            for item in chunk {
+                let one = Bin {
+                    lo: item.lo,
+                    hi: item.hi,
+                    count: 1,
+                };
+                for axis in (0..3).filter(|&axis| active[axis]) {
+                    let bin = &mut bins[axis][bin_of(axis, item)];
+                    *bin = bin.add(one);
+                }
+            }
+            bins
+        })
+        .reduce(
+            || [[Bin::EMPTY; BINS]; 3],
+            |mut a, b| {
+                for (x, y) in a.iter_mut().flatten().zip(b.iter().flatten()) {
+                    *x = x.add(*y);
+                }
+                a
+            },
+        );
     let mut best: Option<(f64, usize, usize)> = None;
-    for axis in 0..3 {
-        if hi[axis] <= lo[axis] {
-            continue;
-        }
-        let mut bins = [Bin::EMPTY; BINS];
-        for item in items.iter() {
-            let bin = &mut bins[bin_of(axis, item)];
-            *bin = bin.add(Bin {
-                lo: item.lo,
-                hi: item.hi,
-                count: 1,
-            });
-        }
+    for (axis, bins) in bins.iter().enumerate().filter(|(axis, _)| active[*axis]) {
         // right[k]: bins k.. together.
         let mut right = [Bin::EMPTY; BINS];
         let mut sum = Bin::EMPTY;
