@@ -115,7 +115,7 @@ fn build_part(scene: &Scene, ids: &[u32]) -> CwBvh {
     bvh
 }
 
-/// How the triangles are cut: a part is a range of the reordered ids; a join has eight
+/// How the triangles are cut: a part is a range of the reordered ids; a join has two to eight
 /// children.
 enum Plan {
     Part(Range<usize>),
