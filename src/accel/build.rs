@@ -386,28 +386,48 @@ mod tests {
 
     #[test]
     fn rays_find_the_same_hits_in_parts_as_in_one_tree() {
-        let scene = soup();
-        let whole = Accel::build_in_parts(&scene, usize::MAX);
-        let mut parts = Accel::build_in_parts(&scene, 600);
-        let mut u = uniforms(6);
-        let mut hits = 0;
-        for _ in 0..4000 {
-            let origin = Vec3::new(u(), u(), u()) * 12.0 - Vec3::ONE;
-            // Near a vertex, where a triangle reaches the edge of its boxes.
-            let i = (u() * 40_000.0) as usize;
-            let vertex = scene.triangles[i].positions[(u() * 3.0) as usize % 3];
-            let to = vertex.lerp(tris_centre(&scene, i), 0.02) - origin;
-            let (dir, length) = (to.normalize(), to.length());
-            let expected = whole.closest_hit(origin, dir, f32::INFINITY);
-            let blocked = whole.occluded(origin, dir, length);
-            hits += usize::from(expected.is_some());
-            for avx2 in [false, crate::cpu::has_avx2_fma()] {
-                parts.avx2 = avx2;
-                assert_eq!(parts.closest_hit(origin, dir, f32::INFINITY), expected);
-                assert_eq!(parts.occluded(origin, dir, length), blocked);
+        // The soup as made (10 m across at the origin), 10 cm across 1 km away (triangles of
+        // 3 mm, about 50 f32 steps there) and 10 km across: the join nodes' quantisation grids
+        // span all these scales.
+        for (scale, offset) in [(1.0, 0.0), (1e-2, 1e3), (1e3, -2e3)] {
+            let mut scene = soup();
+            for t in &mut scene.triangles {
+                t.positions = t.positions.map(|p| p * scale + Vec3::splat(offset));
             }
+            let whole = Accel::build_in_parts(&scene, usize::MAX);
+            let mut parts = Accel::build_in_parts(&scene, 600);
+            let mut u = uniforms(6);
+            let mut hits = 0;
+            for _ in 0..4000 {
+                let origin =
+                    (Vec3::new(u(), u(), u()) * 12.0 - Vec3::ONE) * scale + Vec3::splat(offset);
+                // Near a vertex, where a triangle reaches the edge of its boxes.
+                let i = (u() * 40_000.0) as usize;
+                let vertex = scene.triangles[i].positions[(u() * 3.0) as usize % 3];
+                let to = vertex.lerp(tris_centre(&scene, i), 0.02) - origin;
+                let (dir, length) = (to.normalize(), to.length());
+                let expected = whole.closest_hit(origin, dir, f32::INFINITY);
+                let blocked = whole.occluded(origin, dir, length);
+                hits += usize::from(expected.is_some());
+                for avx2 in [false, crate::cpu::has_avx2_fma()] {
+                    parts.avx2 = avx2;
+                    let got = parts.closest_hit(origin, dir, f32::INFINITY);
+                    // Two triangles at exactly the same distance (a shared vertex or edge) may
+                    // be found in either order.
+                    let tie = got.zip(expected).is_some_and(|(a, b)| a.t == b.t);
+                    assert!(
+                        got == expected || tie,
+                        "scale {scale}: {got:?} {expected:?}"
+                    );
+                    assert_eq!(
+                        parts.occluded(origin, dir, length),
+                        blocked,
+                        "scale {scale}"
+                    );
+                }
+            }
+            assert!(hits > 3000, "scale {scale}: {hits} of 4000 rays hit");
         }
-        assert!(hits > 3000, "{hits} of 4000 rays hit");
     }
 
     #[test]
