@@ -3,8 +3,7 @@
 //! emitters. Each pixel's expected value is ρ·E(x)/π averaged over the pixel's footprint on the
 //! plane (8×8 midpoint quadrature), computed here independently of the renderer.
 
-#[path = "common/lambert.rs"]
-mod lambert;
+use crate::lambert;
 
 use glam::{DVec3, Mat4, Vec3};
 use manylights::integrator::{render, PreparedScene, RenderOptions, Strategy};

@@ -2,14 +2,13 @@
 //! the file and element, a documented non-zero exit code and no output file; the image does not
 //! depend on the thread count.
 
-#[path = "common/run.rs"]
-mod run;
+use crate::run;
 use manylights::cli::{EXIT_BAD_INPUT, EXIT_FAILURE};
 use run::manylights;
 
 use std::path::{Path, PathBuf};
 
-mod common;
+use crate::common;
 use common::{write_gltf, U32};
 
 fn repo(path: &str) -> String {

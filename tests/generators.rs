@@ -3,8 +3,7 @@
 //! refuses bad arguments with a usage error; every committed scene is exactly what `gen` writes
 //! and renders without NaN/Inf; the `extremes` probes match Lambert's polygon formula.
 
-#[path = "common/run.rs"]
-mod run;
+use crate::run;
 use manylights::cli::{EXIT_FAILURE, EXIT_USAGE};
 use run::manylights;
 

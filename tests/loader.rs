@@ -10,7 +10,7 @@ use manylights::gen::gltf_write::{GltfBuilder, GltfMaterial, NodeTransform};
 use manylights::lights::Lights;
 use manylights::scene::{load_gltf, CameraChoice, LoadError, Projection};
 
-mod common;
+use crate::common;
 use common::{write_gltf, U16, U32, U8};
 
 fn close(a: Vec3, b: Vec3) -> bool {

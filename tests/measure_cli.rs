@@ -2,8 +2,7 @@
 //! Cornell box: their files parse with the documented fields, references are cached and reused,
 //! and converge fails on a deliberately biased configuration.
 
-#[path = "common/run.rs"]
-mod run;
+use crate::run;
 use run::manylights;
 
 use std::path::{Path, PathBuf};

@@ -1,8 +1,7 @@
 //! Shadow rays: no light leaks into a closed box from emitters pressed against its outside, and
 //! a surface never shadows itself (no acne), even at grazing angles and extreme scales.
 
-#[path = "common/shapes.rs"]
-mod shapes;
+use crate::shapes;
 use shapes::{closed_box, quad};
 
 use glam::{Mat4, Vec3};

@@ -4,8 +4,7 @@
 //! other options, a damaged one, a missing one, and a forgotten `--resume` are refused with
 //! messages saying what is wrong.
 
-#[path = "common/run.rs"]
-mod run;
+use crate::run;
 use manylights::cli::{EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_USAGE};
 use run::manylights;
 

@@ -4,11 +4,9 @@
 //! plane, and measured variance ratios between M values on a many-light plane. Every pixel must
 //! lie within 5σ of its expected value (σ from the pixels' own sample variances).
 
-#[path = "common/lambert.rs"]
-mod lambert;
+use crate::lambert;
 
-#[path = "common/run.rs"]
-mod run;
+use crate::run;
 use run::manylights;
 
 use std::path::Path;

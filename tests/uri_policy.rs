@@ -5,15 +5,14 @@
 //! are refused with exit 3 and a message naming the file, the element and the rule, before any
 //! output is written; `--allow-external-files DIR` admits the files inside DIR.
 
-#[path = "common/run.rs"]
-mod run;
+use crate::run;
 
 use std::fs;
 use std::path::{Path, PathBuf};
 
 use serde_json::{json, Value};
 
-mod common;
+use crate::common;
 use common::{write_gltf, U32};
 
 const EXIT_USAGE: i32 = 2;

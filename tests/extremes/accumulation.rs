@@ -1,6 +1,6 @@
 //! Accumulation: a million samples of a constant and of two values give the exact statistics.
 
-use crate::*;
+use super::*;
 
 #[test]
 fn a_million_samples_of_a_constant_accumulate_to_the_exact_value() {

@@ -1,7 +1,7 @@
 //! Geometry at the edges: shading points on or a micrometre from an emitter, grazing emission
 //! and reception, degenerate and non-finite geometry, megametre and tenth-of-a-millimetre scenes.
 
-use crate::*;
+use super::*;
 
 #[test]
 fn shading_point_on_an_emitter_sees_its_own_emission_plus_the_other_lights() {

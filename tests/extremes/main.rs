@@ -5,12 +5,9 @@
 //! independently: Lambert's polygon formula for irradiance, brute-force sums for pmfs, exact
 //! constants. Statistical checks allow 5σ, σ from the render's own variance of the mean.
 
-#[path = "../common/mod.rs"]
-mod common;
-#[path = "../common/lambert.rs"]
-mod lambert;
-#[path = "../common/shapes.rs"]
-mod shapes;
+use crate::common;
+use crate::lambert;
+use crate::shapes;
 pub(crate) use shapes::{closed_box, quad};
 
 mod accumulation;

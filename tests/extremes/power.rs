@@ -1,7 +1,7 @@
 //! Power at the edges: radiance from 1e-20 to 1e20, overflowing powers, a million lights with
 //! one dominant, zero power; every selector's pmf checked against a brute-force sum.
 
-use crate::*;
+use super::*;
 
 /// Σ_l pmf(l), in f64, and the smallest pmf of a light with a positive oracle weight.
 fn pmf_sum_and_min_contributing(

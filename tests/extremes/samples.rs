@@ -1,6 +1,6 @@
 //! Samples at the edges: the solid-angle sampler at and around its thresholds, fireflies.
 
-use crate::*;
+use super::*;
 
 /// Solid angle of triangle `v` seen from p (Van Oosterom & Strackee 1983), in f64.
 fn solid_angle(p: DVec3, v: [DVec3; 3]) -> f64 {

@@ -1,7 +1,7 @@
 //! Scenes over the memory budget refused before their buffers are read; a closed output pipe
 //! ends the program quietly.
 
-use crate::*;
+use super::*;
 
 /// `--max-memory`: a scene whose estimated memory (from the sizes its file declares) exceeds the
 /// budget is refused with exit 3 before its buffers are read, with the estimate, its largest part

@@ -5,8 +5,7 @@
 //! panic, and no output or temporary file (the output folder's listing is compared before and
 //! after every run).
 
-#[path = "../common/run.rs"]
-mod run;
+use crate::run;
 
 pub(crate) use manylights::cli::{EXIT_BAD_INPUT, EXIT_FAILURE, EXIT_USAGE};
 use std::fs;
@@ -16,8 +15,7 @@ use std::process::Command;
 use manylights::image::{write_exr, RgbImage};
 use serde_json::{json, Value};
 
-#[path = "../common/mod.rs"]
-mod common;
+use crate::common;
 use common::{write_gltf, U32};
 
 mod budget;

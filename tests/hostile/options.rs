@@ -1,6 +1,6 @@
 //! Malformed option values: usage errors, refused before any work.
 
-use crate::*;
+use super::*;
 
 #[test]
 fn malformed_option_values_are_usage_errors_refused_before_any_work() {

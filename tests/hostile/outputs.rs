@@ -1,6 +1,6 @@
 //! Unwritable output places refused by every output of every command, before any work.
 
-use crate::*;
+use super::*;
 
 /// Where an output can never be written: under a regular file, an existing folder of that name,
 /// a folder that does not exist, and (unless running as root, who may write anywhere) a

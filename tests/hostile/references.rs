@@ -1,7 +1,7 @@
 //! Bad reference EXRs (NaN, infinite, negative, wrong size, truncated) refused by diff, bench and
 //! converge.
 
-use crate::*;
+use super::*;
 
 /// An 8×8 EXR whose pixel (3, 2) has `value` in G (mean) or in variance.G.
 fn poisoned_exr(dir: &Path, name: &str, value: f32, in_variance: bool) -> PathBuf {

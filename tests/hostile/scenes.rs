@@ -1,6 +1,6 @@
 //! Hostile scenes (malformed, truncated, claiming gigabytes) refused by every scene command.
 
-use crate::*;
+use super::*;
 
 /// Every hostile scene, with what its error message must contain (besides its file name).
 fn hostile_scenes(dir: &Path) -> Vec<(PathBuf, Vec<&'static str>)> {

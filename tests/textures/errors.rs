@@ -1,7 +1,7 @@
 //! Missing, corrupt and oversized images and TEXCOORD_1 as errors naming the image, from the
 //! loader and the CLI.
 
-use crate::*;
+use super::*;
 
 /// The error's text, which must name the image; the load must not panic.
 pub(crate) fn load_error(path: &Path) -> String {

@@ -1,7 +1,7 @@
 //! The rendered plane against Lambert's formula, and textured power and light-BVH selection
 //! against uniform selection and BSDF sampling.
 
-use crate::*;
+use super::*;
 
 /// ρ/π · Σ_triangles L_k · E_k at plane point (x, y), with L_k the texel under triangle k.
 pub(crate) fn plane_radiance(x: f64, y: f64) -> DVec3 {

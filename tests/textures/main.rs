@@ -10,8 +10,7 @@
 //!   selection and BSDF sampling (Le read at the hit's uv), block by block within 5σ;
 //! - missing, corrupt and oversized images, and TEXCOORD_1, as errors naming the image.
 
-#[path = "../common/lambert.rs"]
-mod lambert;
+use crate::lambert;
 
 mod errors;
 mod lighting;

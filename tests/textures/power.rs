@@ -1,7 +1,7 @@
 //! Each emitting triangle's selection power against a brute-force stratified average of the
 //! bilinear texture over its uv footprint.
 
-use crate::*;
+use super::*;
 
 #[test]
 pub(crate) fn triangle_power_matches_a_brute_force_average_over_its_texels() {
