@@ -25,8 +25,8 @@ fn restore_broken_pipe_termination() {
 /// mapping. By default each thread gets an arena, and the size above which blocks are mapped
 /// grows to 32 MB once a large block is freed; the BVH build's parts, built in parallel, then
 /// leave their freed temporaries scattered through heaps that cannot shrink. On the 1M-emitter
-/// city (`/usr/bin/time -f %M`, render 64×48, 1 spp, power) the peak was 462–540 MB and varied
-/// between runs; with these settings it is 411–415 MB, for a BVH build of 0.79–0.84 s instead
+/// city (`/usr/bin/time -f %M`, render 64×48, 1 spp, power) the peak was 473–553 MB and varied
+/// between runs; with these settings it is 421–425 MB, for a BVH build of 0.79–0.84 s instead
 /// of 0.6 s (fresh mappings are faulted in again). A camera sample allocates nothing, so the
 /// render never contends for the one arena.
 fn tune_malloc() {

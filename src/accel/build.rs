@@ -6,7 +6,7 @@
 //! every group has at most `part_max` triangles; each part gets its own CWBVH, two parts at a
 //! time, and the parts are joined under CWBVH nodes of our own whose child boxes are quantised
 //! the way obvhs quantises them (rounded outwards on the node's power-of-two grid). Only two
-//! parts' builder temporaries are alive at once, which bounds peak memory (1M city: 733 → 411
+//! parts' builder temporaries are alive at once, which bounds peak memory (1M city: 751 → 421
 //! MB) and the build takes both cores (1.6–2.3 → 0.8 s); rays cost what they cost in one tree
 //! built whole (`cargo bench --bench rays`, city1m: −9 to +5%; median cuts lost 13–27%).
 
