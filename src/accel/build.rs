@@ -9,6 +9,9 @@
 //! parts' builder temporaries are alive at once, which bounds peak memory (1M city: 751 → 421
 //! MB) and the build takes both cores (1.6–2.3 → 0.8 s); rays cost what they cost in one tree
 //! built whole (`cargo bench --bench rays`, city1m: −9 to +5%; median cuts lost 13–27%).
+//! The part size and the parts built at once are the memory model's (`crate::scene::memory`);
+//! below 4M elements obvhs's parallel radix sorts are stable or single-threaded, so a part's
+//! tree never depends on the number of threads.
 
 use std::ops::Range;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -24,7 +27,7 @@ use obvhs::triangle::Triangle as BvhTriangle;
 use obvhs::BvhBuildParams;
 use rayon::prelude::*;
 
-use crate::scene::memory::{BVH_PARTS_AT_ONCE, BVH_PART_MAX_TRIANGLES};
+use crate::scene::memory::BVH_PARTS_AT_ONCE;
 use crate::scene::Scene;
 
 use super::cut::{sah_cut, Item};
@@ -35,13 +38,6 @@ use super::cut::{sah_cut, Item};
 /// triangle test (`cargo bench --bench rays`, thread CPU time); on the 50k city (97k triangles)
 /// the thorough build took 513 ms against 159 ms for a gain within the noise, so it stops here.
 const THOROUGH_BUILD_MAX_TRIANGLES: usize = 1 << 15;
-
-/// Largest part built as one CWBVH (the memory model's, `crate::scene::memory`): its builder
-/// holds about 210 B per triangle (PLOC's node buffers and Morton codes, the binary BVH, the
-/// conversion's decision table), so a part costs at most ~28 MB of temporaries; and below 4M
-/// elements obvhs's parallel radix sorts are stable or single-threaded, so a part's tree never
-/// depends on the number of threads.
-pub(super) const PART_MAX_TRIANGLES: usize = BVH_PART_MAX_TRIANGLES as usize;
 
 /// Children of a CWBVH node.
 const WIDTH: usize = 8;

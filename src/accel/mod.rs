@@ -18,8 +18,9 @@ use obvhs::cwbvh::{node::CwBvhNode, CwBvh};
 use obvhs::ray::Ray;
 
 use crate::cpu::has_avx2_fma;
+use crate::scene::memory::BVH_PART_MAX_TRIANGLES;
 use crate::scene::Scene;
-use build::{build_bvh, PART_MAX_TRIANGLES};
+use build::build_bvh;
 
 mod build;
 mod cut;
@@ -92,7 +93,7 @@ pub struct Accel {
 
 impl Accel {
     pub fn build(scene: &Scene) -> Accel {
-        Accel::build_in_parts(scene, PART_MAX_TRIANGLES)
+        Accel::build_in_parts(scene, BVH_PART_MAX_TRIANGLES as usize)
     }
 
     /// [`build`](Self::build) with parts of at most `part_max` triangles (see `build.rs`).

@@ -128,9 +128,9 @@ pub(super) fn collapse(binary: &[Node], grid: &Grid) -> Vec<WideNode> {
         .collect();
     // Sized once: the nodes are over-aligned, so growing or shrinking the list would copy it
     // (the system allocator's realloc does not keep a 64-byte alignment).
-    let top = wide.len();
-    wide.reserve_exact(counts.iter().sum());
-    wide.resize(top + counts.iter().sum::<usize>(), WideNode::empty());
+    let (top, below): (usize, usize) = (wide.len(), counts.iter().sum());
+    wide.reserve_exact(below);
+    wide.resize(top + below, WideNode::empty());
     let mut blocks = Vec::with_capacity(deferred.len());
     let mut rest = &mut wide[top..];
     let mut base = top;
