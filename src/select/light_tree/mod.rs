@@ -6,8 +6,9 @@
 //!
 //! Each node bounds a set of emitters by a box, their total power Φ, a cone of
 //! normals (axis w, half-angle θo) and the spread θe of emission beyond those
-//! normals. The importance (`lanes`) turns these into an upper bound on what
-//! the set can send to a receiver; [`LightBvh::sample`] walks down from the
+//! normals. The importance (`lanes`) turns these into an estimate of what the
+//! set sends to a receiver (pbrt-v4's bound, its cosines sharpened), 0 only
+//! where the bound says nothing can arrive; [`LightBvh::sample`] walks down from the
 //! root choosing one of a node's (up to) eight children with probability
 //! proportional to its importance, and [`LightBvh::pmf`] recomputes the
 //! probability of any given light by the same products.

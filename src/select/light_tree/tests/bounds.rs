@@ -119,19 +119,23 @@ fn cone_union_holds_both_cones() {
     }
 }
 
-/// The importance bound written with angles (acos, asin) in f64, for
-/// comparison with the lanes' (cos, sin) arithmetic; `None` near a threshold.
+/// The importance written with angles (acos, asin) in f64 from the formula in
+/// `lanes`' header, for comparison with the lanes' (cos, sin) arithmetic;
+/// `None` near a threshold.
 fn importance_with_angles(b: &LightBounds, radius: f32, p: Vec3, n: Vec3) -> Option<f64> {
+    use std::f64::consts::FRAC_PI_2;
     let centre = ((b.lo + b.hi) * 0.5).as_dvec3();
     let (p, n) = (p.as_dvec3(), n.as_dvec3());
     let (r, d) = (f64::from(radius), p.distance(centre));
     if (d - r).abs() < 1e-3 * r.max(1e-3) {
         return None;
     }
+    let share = 0.1;
     let mut emitted = 1.0;
     let mut received = 1.0;
     if d > r {
         let theta_b = (r / d).asin();
+        let theta_s = (0.25 * r / d).asin();
         let theta_w = angle_between(b.w.as_dvec3(), p - centre);
         let theta_w = if b.two_sided {
             theta_w.min(std::f64::consts::PI - theta_w)
@@ -140,25 +144,33 @@ fn importance_with_angles(b: &LightBounds, radius: f32, p: Vec3, n: Vec3) -> Opt
         };
         let theta_o = f64::from(b.cos_theta_o).clamp(-1.0, 1.0).acos();
         let theta_e = f64::from(b.cos_theta_e).clamp(-1.0, 1.0).acos();
-        let theta_p = (theta_w - theta_o).max(0.0) - theta_b;
-        let theta_p = theta_p.max(0.0);
-        if (theta_p - theta_e).abs() < 1e-3 {
+        let theta_p = |half_angle: f64| ((theta_w - theta_o).max(0.0) - half_angle).max(0.0);
+        if (theta_p(theta_b) - theta_e).abs() < 1e-3 {
             return None;
         }
-        emitted = if theta_p < theta_e {
-            theta_p.cos()
-        } else {
-            0.0
-        };
+        if theta_p(theta_b) >= theta_e {
+            return Some(0.0);
+        }
+        emitted = theta_p(theta_s)
+            .cos()
+            .max(share * theta_p(theta_b).cos())
+            .max(f64::from(COS_SLACK));
         if n != DVec3::ZERO {
-            let theta_r = (angle_between(n, centre - p) - theta_b).max(0.0);
-            if (theta_r - std::f64::consts::FRAC_PI_2).abs() < 1e-3 {
+            let theta_i = angle_between(n, centre - p);
+            let theta_r = |half_angle: f64| (theta_i - half_angle).max(0.0);
+            if (theta_r(theta_b) - FRAC_PI_2).abs() < 1e-3 {
                 return None;
             }
-            received = theta_r.cos().max(0.0);
+            if theta_r(theta_b) >= FRAC_PI_2 {
+                return Some(0.0);
+            }
+            received = theta_r(theta_s)
+                .cos()
+                .max(share * theta_r(theta_b).cos())
+                .max(f64::from(COS_SLACK));
         }
     }
-    let d_sq = (d * d).max(r * r);
+    let d_sq = (d * d).max(0.25 * r * r);
     Some(f64::from(b.phi) * emitted * received / d_sq)
 }
 
