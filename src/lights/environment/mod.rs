@@ -188,6 +188,7 @@ impl EnvironmentLight {
 mod tests {
     use super::*;
     use crate::image::RgbImage;
+    use crate::sampling::distribution::tests::{assert_chi_square_passes, chi_square};
     use crate::sampling::rng::PixelRng;
 
     /// A 16×8 map: a smooth sky, a black row, and one bright texel (a sun).
@@ -304,20 +305,8 @@ mod tests {
                 .min(2 * h - 1);
             counts[k * nphi + i] += 1;
         }
-        let mut chi2 = 0.0;
-        let mut dof = 0usize;
-        for (&c, &p) in counts.iter().zip(&expected) {
-            if p == 0.0 {
-                assert_eq!(c, 0, "a bin of probability 0 was drawn");
-                continue;
-            }
-            let e = p * draws as f64;
-            chi2 += (c as f64 - e).powi(2) / e;
-            dof += 1;
-        }
-        let dof = dof - 1;
-        let bound = dof as f64 + 5.0 * (2.0 * dof as f64).sqrt();
-        assert!(chi2 < bound, "χ² = {chi2:.1}, {dof} dof (bound {bound:.1})");
+        let (chi2, dof) = chi_square(&counts, &expected, draws);
+        assert_chi_square_passes(chi2, dof);
     }
 
     #[test]
