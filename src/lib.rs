@@ -10,7 +10,6 @@ pub mod accel;
 pub mod cli;
 pub mod color;
 pub mod cpu;
-pub mod environment;
 pub mod film;
 pub mod gen;
 pub mod image;

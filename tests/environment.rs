@@ -13,8 +13,7 @@ use glam::{DVec3, Mat4, Vec3};
 use manylights::gen::sky;
 use manylights::image::RgbImage;
 use manylights::integrator::{render, PreparedScene, RenderOptions, Strategy};
-use manylights::lights::EnvironmentMap;
-use manylights::scene::{Camera, Material, Scene, Triangle};
+use manylights::scene::{Camera, EnvironmentImage, Material, Scene, Triangle};
 use manylights::select::SelectorKind;
 
 const RHO: f32 = 0.6;
@@ -36,7 +35,7 @@ const SELECTORS: [SelectorKind; 4] = [
 
 /// A 4 m plane at y = 0 facing +Y, a camera 2 m above looking straight down (it sees only the
 /// plane), an emissive triangle facing down 0.5 m below the plane, and the sky `env`.
-fn scene(env: EnvironmentMap) -> Scene {
+fn scene(env: EnvironmentImage) -> Scene {
     let materials = vec![
         Material::lambert(Vec3::splat(RHO)),
         Material::emitter(Vec3::splat(50.0), false),
@@ -67,7 +66,7 @@ fn scene(env: EnvironmentMap) -> Scene {
 /// Renders at 64 spp and checks the image mean of each channel against `expected` within 5σ
 /// (σ from the pixels' variances; estimators with zero variance must then hit it to float
 /// precision).
-fn check(env: EnvironmentMap, expected: DVec3, selector: SelectorKind, strategy: Strategy) {
+fn check(env: EnvironmentImage, expected: DVec3, selector: SelectorKind, strategy: Strategy) {
     let prepared = PreparedScene::new(scene(env), selector);
     assert_eq!(prepared.lights.len(), 2);
     let estimator = prepared.estimator(strategy, 1, 1);
@@ -96,19 +95,19 @@ fn check(env: EnvironmentMap, expected: DVec3, selector: SelectorKind, strategy:
 
 /// A constant 8×4 sky of radiance SKY, turned by 33° (which changes nothing), and the plane's
 /// exitant radiance under it, ρ·L.
-fn constant_sky() -> (EnvironmentMap, DVec3) {
+fn constant_sky() -> (EnvironmentImage, DVec3) {
     let sky = RgbImage {
         width: 8,
         height: 4,
         pixels: vec![SKY; 32],
     };
-    let map = EnvironmentMap::from_image(&sky, 1.0, 33.0).unwrap();
+    let map = EnvironmentImage::from_rgb(&sky, 1.0, 33.0).unwrap();
     (map, (Vec3::from_array(SKY) * RHO).as_dvec3())
 }
 
 /// The 32×16 sun-and-sky map turned by 70°, and ρ/π·E of an upward plane under it, E summed
 /// over the upper 8 rows' texels (each row's ∫cosθ dω = (π/W)·(sin²θ_{j+1} − sin²θ_j)).
-fn sun_and_sky() -> (EnvironmentMap, DVec3) {
+fn sun_and_sky() -> (EnvironmentImage, DVec3) {
     let (w, h) = (32, 16);
     let image = sky::sun_and_sky(w, h);
     let sin2 = |j: usize| (std::f64::consts::PI * j as f64 / h as f64).sin().powi(2);
@@ -119,7 +118,7 @@ fn sun_and_sky() -> (EnvironmentMap, DVec3) {
             irradiance += DVec3::from_array(image.pixels[j * w + i].map(f64::from)) * projected;
         }
     }
-    let map = EnvironmentMap::from_image(&image, 1.0, 70.0).unwrap();
+    let map = EnvironmentImage::from_rgb(&image, 1.0, 70.0).unwrap();
     (map, irradiance * RHO as f64 / std::f64::consts::PI)
 }
 
@@ -290,7 +289,7 @@ fn reference_caches_tell_skies_apart() {
             pixels: map.texels().iter().map(|t| t.to_array()).collect(),
         };
         Some(Arc::new(
-            EnvironmentMap::from_image(&image, scale, rotate).unwrap(),
+            EnvironmentImage::from_rgb(&image, scale, rotate).unwrap(),
         ))
     };
     let plain = load().hash;

@@ -1,7 +1,8 @@
 //! A stable-Rust mutation fuzzer for the OpenEXR readers: `--env` environment maps
-//! (`EnvironmentMap::load`) and references (`read_exr_rgb`, which `diff`, `bench --reference`
-//! and `converge --reference` use). Whatever the bytes, each must return a value or an error
-//! naming the file — never panic, hang, or make an allocation larger than the file could need.
+//! (`EnvironmentImage::load`, then the light built from it, `EnvironmentMap::new`) and references
+//! (`read_exr_rgb`, which `diff`, `bench --reference` and `converge --reference` use). Whatever
+//! the bytes, each must return a value or an error naming the file — never panic, hang, or make
+//! an allocation larger than the file could need.
 //!
 //! Corpus: EXRs written by the renderer (mean only; mean and variance; 1×1; a 16×8 map) and
 //! their f16 variants. Mutations (deterministic from a PCG seed): bit flips, byte overwrites,
@@ -19,10 +20,12 @@ use std::collections::BTreeMap;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use manylights::image::{read_exr_rgb, write_exr, RgbImage};
 use manylights::lights::EnvironmentMap;
+use manylights::scene::EnvironmentImage;
 use rand_core::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
 
@@ -189,8 +192,8 @@ fn read_both(path: &Path, report: &mut Report) -> Result<(), String> {
     FUZZING.store(true, Ordering::SeqCst);
     let result = catch_unwind(AssertUnwindSafe(|| {
         let reference = read_exr_rgb(path).map(|_| ()).map_err(|e| format!("{e:#}"));
-        let env = EnvironmentMap::load(path, 1.0, 30.0)
-            .map(|_| ())
+        let env = EnvironmentImage::load(path, 1.0, 30.0)
+            .map(|image| drop(EnvironmentMap::new(Arc::new(image))))
             .map_err(|e| e.to_string());
         (reference, env)
     }));
@@ -289,7 +292,7 @@ fn found_inputs_are_refused() {
         let reference = read_exr_rgb(&path)
             .map(|_| ())
             .map_err(|e| format!("{e:#}"));
-        let env = EnvironmentMap::load(&path, 1.0, 0.0)
+        let env = EnvironmentImage::load(&path, 1.0, 0.0)
             .map(|_| ())
             .map_err(|e| e.to_string());
         FUZZING.store(false, Ordering::SeqCst);

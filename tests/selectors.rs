@@ -6,9 +6,11 @@ use std::sync::Arc;
 
 use glam::Vec3;
 use manylights::gen::{generate, sky};
-use manylights::lights::{EnvironmentMap, Lights};
+use manylights::lights::Lights;
 use manylights::sampling::rng::PixelRng;
-use manylights::scene::{load_gltf, CameraChoice, PunctualKind, PunctualLight, Scene};
+use manylights::scene::{
+    load_gltf, CameraChoice, EnvironmentImage, PunctualKind, PunctualLight, Scene,
+};
 use manylights::select::{oracle, LightSelector, SelectorKind, ShadingContext};
 
 fn town_with_punctual_lights() -> Scene {
@@ -42,7 +44,7 @@ fn town_with_punctual_lights() -> Scene {
         ])
         .unwrap()
         .with_environment(Some(Arc::new(
-            EnvironmentMap::from_image(&sky::sun_and_sky(32, 16), 0.2, 20.0).unwrap(),
+            EnvironmentImage::from_rgb(&sky::sun_and_sky(32, 16), 0.2, 20.0).unwrap(),
         )))
 }
 

@@ -5,11 +5,12 @@
 #![no_main]
 
 use std::path::PathBuf;
-use std::sync::OnceLock;
+use std::sync::{Arc, OnceLock};
 
 use libfuzzer_sys::fuzz_target;
 use manylights::image::read_exr_rgb;
 use manylights::lights::EnvironmentMap;
+use manylights::scene::EnvironmentImage;
 
 /// One file per fuzzing process.
 fn input_path() -> &'static PathBuf {
@@ -28,6 +29,8 @@ fuzz_target!(|bytes: &[u8]| {
         return;
     }
     if let Ok((image, _)) = read_exr_rgb(path) {
-        let _ = EnvironmentMap::from_image(&image, 1.0, 30.0);
+        if let Ok(env) = EnvironmentImage::from_rgb(&image, 1.0, 30.0) {
+            let _ = EnvironmentMap::new(Arc::new(env));
+        }
     }
 });

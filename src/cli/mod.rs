@@ -3,7 +3,7 @@
 //! Exit codes: 0 success; 1 a run-time failure (e.g. an output file cannot be written);
 //! 2 bad command-line usage (from clap, or a [`UsageError`]); 3 an input that cannot be read or
 //! is invalid (a scene's [`crate::scene::LoadError`], an environment map's
-//! [`crate::lights::EnvironmentError`], or a [`BadInput`] image or reference);
+//! [`crate::scene::EnvironmentError`], or a [`BadInput`] image or reference);
 //! 4 a `converge` check failed; 130 a `reference` interrupted by SIGINT or SIGTERM (after
 //! writing its checkpoint).
 
@@ -79,8 +79,7 @@ pub fn run(cli: Cli) -> i32 {
             } else if e.downcast_ref::<reference::Interrupted>().is_some() {
                 EXIT_INTERRUPTED
             } else if e.downcast_ref::<crate::scene::LoadError>().is_some()
-                || e.downcast_ref::<crate::lights::EnvironmentError>()
-                    .is_some()
+                || e.downcast_ref::<crate::scene::EnvironmentError>().is_some()
                 || e.downcast_ref::<BadInput>().is_some()
             {
                 EXIT_BAD_INPUT

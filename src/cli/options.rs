@@ -10,11 +10,10 @@ use clap::Args;
 
 use super::UsageError;
 use crate::integrator::Strategy;
-use crate::lights::{EnvironmentError, EnvironmentMap};
 use crate::measure::EstimatorChoice;
 use crate::sampling::sampler::SamplerKind;
 use crate::scene::memory::{available_memory, parse_size, MemoryBudget};
-use crate::scene::{CameraChoice, LoadPolicy, PunctualUnits};
+use crate::scene::{CameraChoice, EnvironmentError, EnvironmentImage, LoadPolicy, PunctualUnits};
 use crate::select::SelectorKind;
 
 #[derive(Args, Debug, Clone)]
@@ -187,10 +186,10 @@ impl RenderOptionsArgs {
     }
 
     /// The `--env` map, scaled and rotated (None without `--env`).
-    pub fn environment(&self) -> Result<Option<Arc<EnvironmentMap>>, EnvironmentError> {
+    pub fn environment(&self) -> Result<Option<Arc<EnvironmentImage>>, EnvironmentError> {
         self.env
             .as_deref()
-            .map(|path| EnvironmentMap::load(path, self.env_scale, self.env_rotate).map(Arc::new))
+            .map(|path| EnvironmentImage::load(path, self.env_scale, self.env_rotate).map(Arc::new))
             .transpose()
     }
 

@@ -199,11 +199,11 @@ fn render_scene(
         threads: rayon::current_num_threads(),
         triangles: prepared.scene.triangles.len(),
         lights: prepared.lights.len(),
-        environment: prepared.lights.environment().and_then(|(_, map)| {
+        environment: prepared.scene.environment.as_ref().and_then(|image| {
             Some(EnvironmentSummary {
                 file: o.env.clone()?,
-                width: map.width(),
-                height: map.height(),
+                width: image.width(),
+                height: image.height(),
                 scale: o.env_scale,
                 rotate_degrees: o.env_rotate,
             })

@@ -152,12 +152,16 @@ pub fn outdoor() -> GltfBuilder {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::environment::EnvironmentMap;
+    use crate::lights::EnvironmentMap;
+    use crate::scene::EnvironmentImage;
+    use std::sync::Arc;
 
     #[test]
     fn the_sun_is_where_the_map_says_and_outshines_the_sky() {
         let image = sun_and_sky(256, 128);
-        let map = EnvironmentMap::from_image(&image, 1.0, 0.0).unwrap();
+        let map = EnvironmentMap::new(Arc::new(
+            EnvironmentImage::from_rgb(&image, 1.0, 0.0).unwrap(),
+        ));
         let at_sun = map.radiance(sun_direction());
         assert_eq!(at_sun, Vec3::from_array(SUN_RADIANCE));
         // Irradiance on a surface facing the sun, split into sun disc and the rest of the

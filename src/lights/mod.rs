@@ -3,17 +3,18 @@
 //! power uses its emission averaged over the triangle's own uv footprint, not the factor or the
 //! whole image's mean.
 
+pub mod environment;
 pub mod polygon;
 pub mod power_stats;
 pub mod punctual;
 pub mod spherical_triangle;
 pub mod triangle;
 
+use std::sync::Arc;
+
 use glam::Vec3;
 
-pub use crate::environment::{
-    EnvironmentError, EnvironmentLight, EnvironmentMap, EnvironmentSample,
-};
+pub use environment::{EnvironmentLight, EnvironmentMap, EnvironmentSample};
 pub use punctual::{DeltaSample, DirectionalLight, PointLight};
 pub use triangle::{Technique, TriangleLight, TriangleSample};
 
@@ -74,7 +75,7 @@ pub struct Lights {
 
 impl Lights {
     /// One light per triangle whose material emits, then the punctual lights, then the
-    /// environment map.
+    /// environment map (its sampling distribution built here from the scene's image).
     pub fn from_scene(scene: &Scene) -> Lights {
         let emissive =
             |t: &crate::scene::Triangle| scene.materials[t.material as usize].is_emissive();
@@ -109,9 +110,9 @@ impl Lights {
                 .iter()
                 .map(|l| punctual::from_punctual(l, radius, scene.punctual_units)),
         );
-        if let Some(map) = &scene.environment {
+        if let Some(image) = &scene.environment {
             lights.push(Light::Environment(EnvironmentLight {
-                map: map.clone(),
+                map: Arc::new(EnvironmentMap::new(image.clone())),
                 scene_radius: radius,
             }));
         }

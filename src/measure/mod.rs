@@ -21,11 +21,10 @@ use serde::{Deserialize, Serialize};
 use crate::film::Film;
 use crate::image::RgbImage;
 use crate::integrator::Strategy;
-use crate::lights::EnvironmentMap;
 use crate::sampling::sampler::SamplerKind;
 use crate::scene::{
-    load_gltf_bytes_allowing, read_scene_file, scene_folder, Camera, CameraChoice, LoadPolicy,
-    PunctualUnits, Scene,
+    load_gltf_bytes_allowing, read_scene_file, scene_folder, Camera, CameraChoice,
+    EnvironmentImage, LoadPolicy, PunctualUnits, Scene,
 };
 use crate::select::SelectorKind;
 
@@ -118,7 +117,7 @@ impl SceneSetup {
 
     /// Lights the scene with `environment`; the hash then covers the map's size, scaled texels
     /// and rotation too, so that references rendered without it (or with another) do not match.
-    pub fn with_environment(mut self, environment: Option<Arc<EnvironmentMap>>) -> SceneSetup {
+    pub fn with_environment(mut self, environment: Option<Arc<EnvironmentImage>>) -> SceneSetup {
         if let Some(env) = &environment {
             let mut bytes = self.hash.to_le_bytes().to_vec();
             bytes.extend((env.width() as u64).to_le_bytes());

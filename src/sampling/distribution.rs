@@ -133,13 +133,13 @@ impl Distribution2D {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::sampling::rng::PixelRng;
 
     /// Pearson's χ² of `counts` against expected probabilities `p` over `total` draws, and its
     /// degrees of freedom (bins with p > 0, minus one). Draws in a bin with p = 0 fail at once.
-    fn chi_square(counts: &[u64], p: &[f64], total: u64) -> (f64, usize) {
+    pub(crate) fn chi_square(counts: &[u64], p: &[f64], total: u64) -> (f64, usize) {
         let mut chi2 = 0.0;
         let mut bins = 0;
         for (&c, &p) in counts.iter().zip(p) {
@@ -156,7 +156,7 @@ mod tests {
 
     /// χ² with `dof` degrees of freedom is below mean + 5·sd = dof + 5·√(2·dof) except with
     /// negligible probability (fixed seeds make the tests deterministic anyway).
-    fn assert_chi_square_passes(chi2: f64, dof: usize) {
+    pub(crate) fn assert_chi_square_passes(chi2: f64, dof: usize) {
         let bound = dof as f64 + 5.0 * (2.0 * dof as f64).sqrt();
         assert!(
             chi2 < bound,

@@ -5,6 +5,7 @@
 //! the material: a triangle whose material has non-zero emitted radiance is a light.
 
 mod camera;
+mod environment;
 mod gltf_camera;
 mod gltf_checks;
 mod gltf_extensions;
@@ -16,6 +17,7 @@ pub mod texture;
 pub mod texture_decode;
 
 pub use camera::{Camera, Projection};
+pub use environment::{EnvironmentError, EnvironmentImage};
 pub use gltf_load::{
     load_gltf, load_gltf_allowing, load_gltf_bytes, load_gltf_bytes_allowing, read_scene_file,
     scene_folder, CameraChoice, LoadError, LoadPolicy, MAX_TRIANGLES,
@@ -25,8 +27,6 @@ pub use texture::{Texture, UvTransform, Wrap};
 use std::sync::Arc;
 
 use glam::{Vec2, Vec3};
-
-use crate::environment::EnvironmentMap;
 
 /// glTF metallic-roughness material: constant factors, and optional base-colour and emissive
 /// textures (indices into [`Scene::textures`]) that multiply them, read at TEXCOORD_0.
@@ -233,8 +233,8 @@ pub struct Scene {
     /// The textures materials refer to, linear RGB.
     pub textures: Vec<Texture>,
     /// The environment map lighting the scene from infinitely far away (given on the command
-    /// line, not by the glTF file).
-    pub environment: Option<Arc<EnvironmentMap>>,
+    /// line, not by the glTF file): its texels and rotation; `lights` builds the light from it.
+    pub environment: Option<Arc<EnvironmentImage>>,
     pub stats: LoadStats,
 }
 
@@ -369,7 +369,7 @@ impl Scene {
     }
 
     /// Lights the scene with an environment map (None: no environment).
-    pub fn with_environment(mut self, environment: Option<Arc<EnvironmentMap>>) -> Scene {
+    pub fn with_environment(mut self, environment: Option<Arc<EnvironmentImage>>) -> Scene {
         self.environment = environment;
         self
     }

@@ -176,18 +176,8 @@ pub(super) fn node_json(n: &NodeData) -> Value {
     if !n.children.is_empty() {
         out["children"] = json!(n.children);
     }
-    match &n.transform {
-        NodeTransform::Identity => {}
-        NodeTransform::Trs {
-            translation,
-            rotation,
-            scale,
-        } => {
-            out["translation"] = num_array(translation);
-            out["rotation"] = num_array(rotation);
-            out["scale"] = num_array(scale);
-        }
-        NodeTransform::Matrix(m) => out["matrix"] = num_array(m),
+    for (key, values) in n.transform.properties() {
+        out[key] = num_array(values);
     }
     out
 }

@@ -116,6 +116,26 @@ pub enum NodeTransform {
     Matrix([f32; 16]),
 }
 
+impl NodeTransform {
+    /// The glTF node properties that hold it, with their numbers: none for the identity,
+    /// `translation`, `rotation` and `scale`, or `matrix`.
+    fn properties(&self) -> Vec<(&'static str, &[f32])> {
+        match self {
+            NodeTransform::Identity => Vec::new(),
+            NodeTransform::Trs {
+                translation,
+                rotation,
+                scale,
+            } => vec![
+                ("translation", translation),
+                ("rotation", rotation),
+                ("scale", scale),
+            ],
+            NodeTransform::Matrix(m) => vec![("matrix", m)],
+        }
+    }
+}
+
 /// Stored data of one single-primitive triangle mesh.
 #[derive(Clone, Debug)]
 struct MeshData {
@@ -357,17 +377,8 @@ impl GltfBuilder {
             camera.is_none_or(|c| c < self.cameras.len()),
             "node {name:?}: no such camera"
         );
-        match &transform {
-            NodeTransform::Identity => {}
-            NodeTransform::Trs {
-                translation,
-                rotation,
-                scale,
-            } => {
-                assert_finite(translation.iter().chain(rotation).chain(scale), name);
-            }
-            NodeTransform::Matrix(m) => assert_finite(m.iter(), name),
-        }
+        let numbers = transform.properties().into_iter().flat_map(|(_, v)| v);
+        assert_finite(numbers, name);
         self.nodes.push(NodeData {
             name: name.to_owned(),
             mesh,

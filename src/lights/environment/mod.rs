@@ -1,12 +1,6 @@
-//! The environment light: radiance arriving from infinitely far away, read from an
-//! equirectangular (latitude-longitude) RGB image and importance-sampled texel by texel.
-//!
-//! Convention (glTF's +Y up): texel (i, j) of a W×H map covers u = φ/2π ∈ [i/W, (i+1)/W) and
-//! v = θ/π ∈ [j/H, (j+1)/H), with θ the angle from +Y (row 0 is the zenith) and the map's
-//! direction d(θ, φ) = (−sinθ·sinφ, cosθ, sinθ·cosφ): u = 0 looks along +Z, u = 1/4 along −X,
-//! the image centre u = 1/2 along −Z (where a default glTF camera looks), u = 3/4 along +X, so
-//! the image reads left to right as a viewer inside the sphere turns right. `--env-rotate α`
-//! turns the map by α about +Y (counter-clockwise seen from above): world = R_y(α)·d.
+//! The environment light: radiance arriving from infinitely far away, built from the scene's
+//! [`EnvironmentImage`] (scaled texels and rotation; its module states the equirectangular
+//! convention) and importance-sampled texel by texel.
 //!
 //! Radiance is piecewise constant: L(ω) is the value of the texel ω falls in (nearest, no
 //! filtering), so the sampling density matches the integrand's shape exactly. Sampling draws a
@@ -15,7 +9,6 @@
 //! solid-angle density is p(ω) = p(u, v) / (2π²·sinθ) (pbrt-v4 §12.5.2).
 
 use std::f64::consts::PI;
-use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use glam::{DVec3, Vec3};
@@ -23,18 +16,10 @@ use glam::{DVec3, Vec3};
 pub mod sky_irradiance;
 
 use crate::color::luminance;
-use crate::image::{read_exr_rgb, RgbImage};
 use crate::sampling::distribution::Distribution2D;
 use crate::sampling::warp::equirectangular_direction;
+use crate::scene::EnvironmentImage;
 use sky_irradiance::IrradianceTable;
-
-/// An environment map that cannot be used, naming its file.
-#[derive(Debug, thiserror::Error)]
-#[error("environment map {}: {message}", path.display())]
-pub struct EnvironmentError {
-    pub path: PathBuf,
-    pub message: String,
-}
 
 /// A direction drawn from the map: unit direction toward the sky, the radiance arriving from it
 /// and the density in solid angle.
@@ -45,17 +30,15 @@ pub struct EnvironmentSample {
     pub pdf: f32,
 }
 
-/// The equirectangular map, scaled and rotated, with its sampling distribution.
+/// The scene's environment image with what sampling and the oracle need: its texel
+/// distribution, integral and irradiance table.
 #[derive(Clone, Debug)]
 pub struct EnvironmentMap {
-    width: usize,
-    height: usize,
-    /// Radiance × scale, row-major, row 0 at the zenith.
-    texels: Vec<Vec3>,
+    /// The scaled texels (row 0 at the zenith), their size and the rotation.
+    image: Arc<EnvironmentImage>,
     distribution: Distribution2D,
     /// (sin α, cos α) of the rotation about +Y.
     rotation: (f32, f32),
-    rotation_degrees: f32,
     /// ∫ L dω over the sphere per channel, the exact texel sum Σ L_ij·Ω_j.
     integral: DVec3,
     /// Unshadowed irradiance (luminance) onto a receiver of any normal, for the oracle.
@@ -63,51 +46,11 @@ pub struct EnvironmentMap {
 }
 
 impl EnvironmentMap {
-    /// Reads an RGB OpenEXR file (channels R, G, B; f16, f32 or u32 samples).
-    pub fn load(
-        path: &Path,
-        scale: f32,
-        rotate_degrees: f32,
-    ) -> Result<EnvironmentMap, EnvironmentError> {
-        let error = |message: String| EnvironmentError {
-            path: path.into(),
-            message,
-        };
-        let (image, _) = read_exr_rgb(path).map_err(|e| error(format!("{e:#}")))?;
-        EnvironmentMap::from_image(&image, scale, rotate_degrees).map_err(error)
-    }
-
-    /// Builds the map from an image of radiance: every texel finite and non-negative, scale
-    /// finite and non-negative, the rotation finite.
-    pub fn from_image(
-        image: &RgbImage,
-        scale: f32,
-        rotate_degrees: f32,
-    ) -> Result<EnvironmentMap, String> {
-        let (width, height) = (image.width, image.height);
-        if width == 0 || height == 0 || image.pixels.len() != width * height {
-            return Err(format!(
-                "image is {width}×{height} with {} texels",
-                image.pixels.len()
-            ));
-        }
-        if !(scale.is_finite() && scale >= 0.0 && rotate_degrees.is_finite()) {
-            return Err(format!(
-                "scale {scale} and rotation {rotate_degrees}° must be finite, the scale ≥ 0"
-            ));
-        }
-        let mut texels = Vec::with_capacity(image.pixels.len());
-        for (k, p) in image.pixels.iter().enumerate() {
-            let l = Vec3::from_array(*p);
-            if !l.is_finite() || l.min_element() < 0.0 {
-                return Err(format!(
-                    "texel ({}, {}) is {p:?}: radiance must be finite and non-negative",
-                    k % width,
-                    k / width
-                ));
-            }
-            texels.push(l * scale);
-        }
+    /// Builds the sampling distribution ∝ luminance(L_ij)·sinθ_j, the integral and the
+    /// irradiance table of `image`.
+    pub fn new(image: Arc<EnvironmentImage>) -> EnvironmentMap {
+        let (width, height) = (image.width(), image.height());
+        let texels = image.texels();
         let mut weights = Vec::with_capacity(texels.len());
         let mut integral = DVec3::ZERO;
         for j in 0..height {
@@ -118,35 +61,15 @@ impl EnvironmentMap {
                 integral += l.as_dvec3() * omega;
             }
         }
-        let (sin, cos) = rotate_degrees.to_radians().sin_cos();
+        let (sin, cos) = image.rotation_degrees().to_radians().sin_cos();
         let luminances: Vec<f32> = texels.iter().map(|l| luminance(*l)).collect();
-        Ok(EnvironmentMap {
+        EnvironmentMap {
             irradiance: IrradianceTable::new(&luminances, width, height),
-            width,
-            height,
             distribution: Distribution2D::new(&weights, width, height),
-            texels,
             rotation: (sin, cos),
-            rotation_degrees: rotate_degrees,
             integral,
-        })
-    }
-
-    pub fn width(&self) -> usize {
-        self.width
-    }
-
-    pub fn height(&self) -> usize {
-        self.height
-    }
-
-    /// The scaled radiance of every texel, row 0 at the zenith.
-    pub fn texels(&self) -> &[Vec3] {
-        &self.texels
-    }
-
-    pub fn rotation_degrees(&self) -> f32 {
-        self.rotation_degrees
+            image,
+        }
     }
 
     /// ∫ L(ω) dω over the sphere, per channel (exact for the piecewise-constant map).
@@ -184,8 +107,9 @@ impl EnvironmentMap {
         let phi = (-x).atan2(z);
         let u = if phi < 0.0 { phi + 2.0 * PI } else { phi } / (2.0 * PI);
         let v = y.acos() / PI;
-        let column = ((u * self.width as f64) as usize).min(self.width - 1);
-        let row = ((v * self.height as f64) as usize).min(self.height - 1);
+        let (width, height) = (self.image.width(), self.image.height());
+        let column = ((u * width as f64) as usize).min(width - 1);
+        let row = ((v * height as f64) as usize).min(height - 1);
         (column, row, (x * x + z * z).sqrt())
     }
 
@@ -202,7 +126,13 @@ impl EnvironmentMap {
     #[inline]
     pub fn radiance(&self, w: Vec3) -> Vec3 {
         let (column, row, _) = self.texel_of(w);
-        self.texels[row * self.width + column]
+        self.texel(column, row)
+    }
+
+    /// The scaled radiance of texel (column, row).
+    #[inline]
+    fn texel(&self, column: usize, row: usize) -> Vec3 {
+        self.image.texels()[row * self.image.width() + column]
     }
 
     /// A direction ∝ luminance(L)·sinθ per texel, from two uniform numbers; None when it lands
@@ -216,7 +146,7 @@ impl EnvironmentMap {
         }
         Some(EnvironmentSample {
             wi,
-            radiance: self.texels[row * self.width + column],
+            radiance: self.texel(column, row),
             pdf: (p_uv / (2.0 * PI * PI * sin_theta)) as f32,
         })
     }
@@ -257,6 +187,8 @@ impl EnvironmentLight {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::image::RgbImage;
+    use crate::sampling::distribution::tests::{assert_chi_square_passes, chi_square};
     use crate::sampling::rng::PixelRng;
 
     /// A 16×8 map: a smooth sky, a black row, and one bright texel (a sun).
@@ -277,7 +209,9 @@ mod tests {
             height: h,
             pixels,
         };
-        EnvironmentMap::from_image(&image, 1.5, rotate_degrees).unwrap()
+        EnvironmentMap::new(Arc::new(
+            EnvironmentImage::from_rgb(&image, 1.5, rotate_degrees).unwrap(),
+        ))
     }
 
     #[test]
@@ -371,20 +305,8 @@ mod tests {
                 .min(2 * h - 1);
             counts[k * nphi + i] += 1;
         }
-        let mut chi2 = 0.0;
-        let mut dof = 0usize;
-        for (&c, &p) in counts.iter().zip(&expected) {
-            if p == 0.0 {
-                assert_eq!(c, 0, "a bin of probability 0 was drawn");
-                continue;
-            }
-            let e = p * draws as f64;
-            chi2 += (c as f64 - e).powi(2) / e;
-            dof += 1;
-        }
-        let dof = dof - 1;
-        let bound = dof as f64 + 5.0 * (2.0 * dof as f64).sqrt();
-        assert!(chi2 < bound, "χ² = {chi2:.1}, {dof} dof (bound {bound:.1})");
+        let (chi2, dof) = chi_square(&counts, &expected, draws);
+        assert_chi_square_passes(chi2, dof);
     }
 
     #[test]
@@ -396,7 +318,7 @@ mod tests {
             let omega =
                 2.0 * PI / 16.0 * ((PI * j as f64 / 8.0).cos() - (PI * (j + 1) as f64 / 8.0).cos());
             for i in 0..16 {
-                exact += map.texels[j * 16 + i].as_dvec3() * omega;
+                exact += map.texel(i, j).as_dvec3() * omega;
             }
         }
         assert!((exact - map.integral()).abs().max_element() < 1e-9 * exact.max_element());
@@ -426,34 +348,14 @@ mod tests {
     }
 
     #[test]
-    fn bad_maps_are_refused_with_the_texel_named() {
-        let image = |pixels: Vec<[f32; 3]>| RgbImage {
-            width: 2,
-            height: 1,
-            pixels,
-        };
-        let e = EnvironmentMap::from_image(&image(vec![[1.0; 3], [f32::NAN, 0.0, 0.0]]), 1.0, 0.0)
-            .unwrap_err();
-        assert!(e.contains("texel (1, 0)"), "{e}");
-        let e = EnvironmentMap::from_image(&image(vec![[-1.0, 0.0, 0.0], [1.0; 3]]), 1.0, 0.0)
-            .unwrap_err();
-        assert!(e.contains("texel (0, 0)"), "{e}");
-        let empty = RgbImage {
-            width: 0,
-            height: 0,
-            pixels: vec![],
-        };
-        assert!(EnvironmentMap::from_image(&empty, 1.0, 0.0).is_err());
-    }
-
-    #[test]
     fn a_black_map_has_no_power_and_zero_radiance_everywhere() {
         let image = RgbImage {
             width: 4,
             height: 2,
             pixels: vec![[0.0; 3]; 8],
         };
-        let map = Arc::new(EnvironmentMap::from_image(&image, 1.0, 0.0).unwrap());
+        let image = EnvironmentImage::from_rgb(&image, 1.0, 0.0).unwrap();
+        let map = Arc::new(EnvironmentMap::new(Arc::new(image)));
         let light = EnvironmentLight {
             map: map.clone(),
             scene_radius: 3.0,
