@@ -49,13 +49,8 @@ pub fn run(args: &InfoArgs) -> anyhow::Result<()> {
     println!("triangle power     {triangle_power:.6e} W (Φ = π·A·luminance, ×2 two-sided)");
     print_punctual(&scene);
     println!(
-        "total power        {:.6e} W (every light{})",
-        lights.total_power(),
-        if scene.environment.is_some() {
-            ", environment included"
-        } else {
-            ""
-        }
+        "total power        {:.6e} W (every light)",
+        lights.total_power()
     );
     println!("materials          {}", scene.materials.len());
     if !scene.textures.is_empty() {

@@ -4,7 +4,7 @@
 //!               hemisphere; zero behind a one-sided emitter),
 //!     point/spot: luminance(I · falloff) · max(0, n·ω) / r²,   directional: luminance(E) · max(0, n·ω),
 //!     environment: ∫ luminance(L)·max(0, n·ω) dω from a table accurate to a few percent
-//!               (environment::sky_irradiance), floored at 1e-4·∫ luminance(L) dω so that a sky the
+//!               (lights::environment::sky_irradiance), floored at 1e-4·∫ luminance(L) dω so that a sky the
 //!               table rounds to 0 is never ruled out.
 //! It ignores visibility and the BRDF's shape: the bound any visibility-blind selector can approach.
 
