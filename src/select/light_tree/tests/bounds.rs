@@ -127,49 +127,53 @@ fn importance_with_angles(b: &LightBounds, radius: f32, p: Vec3, n: Vec3) -> Opt
     let centre = ((b.lo + b.hi) * 0.5).as_dvec3();
     let (p, n) = (p.as_dvec3(), n.as_dvec3());
     let (r, d) = (f64::from(radius), p.distance(centre));
-    if (d - r).abs() < 1e-3 * r.max(1e-3) {
+    if (d - r).abs() < 1e-3 * r.max(1e-3) || (d - 0.25 * r).abs() < 1e-3 * r.max(1e-3) {
         return None;
     }
-    let share = 0.1;
-    let mut emitted = 1.0;
-    let mut received = 1.0;
+    let (share, inside_floor) = (0.1, 0.5);
+    let theta_w = angle_between(b.w.as_dvec3(), p - centre);
+    let theta_w = if b.two_sided {
+        theta_w.min(std::f64::consts::PI - theta_w)
+    } else {
+        theta_w
+    };
+    let theta_o = f64::from(b.cos_theta_o).clamp(-1.0, 1.0).acos();
+    let theta_e = f64::from(b.cos_theta_e).clamp(-1.0, 1.0).acos();
+    let theta_i = angle_between(n, centre - p);
+    // The cosine of θx − θ for the sphere of radius `radius` (1 inside it).
+    let cosine = |theta_x: f64, radius: f64| {
+        if d <= radius {
+            1.0
+        } else {
+            (theta_x - (radius / d).asin()).max(0.0).cos()
+        }
+    };
+    let theta_x = (theta_w - theta_o).max(0.0);
+    let mut emitted = cosine(theta_x, 0.25 * r);
+    let mut received = cosine(theta_i, 0.25 * r);
     if d > r {
         let theta_b = (r / d).asin();
-        let theta_s = (0.25 * r / d).asin();
-        let theta_w = angle_between(b.w.as_dvec3(), p - centre);
-        let theta_w = if b.two_sided {
-            theta_w.min(std::f64::consts::PI - theta_w)
-        } else {
-            theta_w
-        };
-        let theta_o = f64::from(b.cos_theta_o).clamp(-1.0, 1.0).acos();
-        let theta_e = f64::from(b.cos_theta_e).clamp(-1.0, 1.0).acos();
-        let theta_p = |half_angle: f64| ((theta_w - theta_o).max(0.0) - half_angle).max(0.0);
-        if (theta_p(theta_b) - theta_e).abs() < 1e-3 {
+        let theta_p = (theta_x - theta_b).max(0.0);
+        let theta_r = (theta_i - theta_b).max(0.0);
+        let near = |a: f64, b: f64| (a - b).abs() < 1e-3;
+        if near(theta_p, theta_e) || (n != DVec3::ZERO && near(theta_r, FRAC_PI_2)) {
             return None;
         }
-        if theta_p(theta_b) >= theta_e {
+        if theta_p >= theta_e || (n != DVec3::ZERO && theta_r >= FRAC_PI_2) {
             return Some(0.0);
         }
-        emitted = theta_p(theta_s)
-            .cos()
-            .max(share * theta_p(theta_b).cos())
-            .max(f64::from(COS_SLACK));
-        if n != DVec3::ZERO {
-            let theta_i = angle_between(n, centre - p);
-            let theta_r = |half_angle: f64| (theta_i - half_angle).max(0.0);
-            if (theta_r(theta_b) - FRAC_PI_2).abs() < 1e-3 {
-                return None;
-            }
-            if theta_r(theta_b) >= FRAC_PI_2 {
-                return Some(0.0);
-            }
-            received = theta_r(theta_s)
-                .cos()
-                .max(share * theta_r(theta_b).cos())
-                .max(f64::from(COS_SLACK));
-        }
+        emitted = emitted.max(share * theta_p.cos());
+        received = received.max(share * theta_r.cos());
+    } else {
+        emitted = emitted.max(inside_floor);
+        received = received.max(inside_floor);
     }
+    emitted = emitted.max(f64::from(COS_SLACK));
+    received = if n == DVec3::ZERO {
+        1.0
+    } else {
+        received.max(f64::from(COS_SLACK))
+    };
     let d_sq = (d * d).max(0.25 * r * r);
     Some(f64::from(b.phi) * emitted * received / d_sq)
 }
