@@ -3,7 +3,7 @@
 //! Conty Estevez & Kulla 2018 SAOH), exhaustive cuts for small nodes, and the
 //! in-place partition of the lights.
 
-use glam::{Vec3, Vec3A};
+use glam::{Vec3, Vec3A, Vec4};
 
 use super::*;
 
@@ -174,67 +174,123 @@ impl Side {
         self.cos_e = self.cos_e.min(other.cos_e);
     }
 
-    /// cos θo of a cone holding every light's normal cone: about the
-    /// direction a of the axis box's centre, the smallest a·w over the box
-    /// bounds the axes' angle from a, and the widest θo is added to it.
-    pub(super) fn cos_half_angle(&self) -> f32 {
-        if self.count == 1 {
-            return self.cos_o;
-        }
-        let a = self.axes.lo + self.axes.hi;
-        let length = a.length();
-        if !length.is_normal() {
-            return -1.0;
-        }
-        let nearest =
-            ((a * self.axes.lo).min(a * self.axes.hi).element_sum() / length).clamp(-1.0, 1.0);
-        if self.cos_o >= 1.0 {
-            nearest
+    /// Writes what this set's cost needs into entry `i` of `inputs`, Φ · area
+    /// scaled by `scale`.
+    fn cost_inputs(&self, inputs: &mut CostInputs, i: usize, pad: f32, scale: f64) {
+        let (a_sq, a_min) = if self.count == 1 {
+            (1.0, 1.0)
         } else {
-            cos_sum(nearest, self.cos_o, sin_of(self.cos_o))
-        }
-    }
-
-    /// pbrt-v4's split cost of one side without the axis factor:
-    /// Φ · M_Ω(θo, θe) · surface area.
-    pub(super) fn cost(&self, pad: f32) -> f64 {
-        let m_omega = orientation_measure(self.cos_half_angle(), self.cos_e);
-        self.phi * m_omega * self.bounds.padded_area(pad)
+            let a = self.axes.lo + self.axes.hi;
+            (
+                a.length_squared(),
+                (a * self.axes.lo).min(a * self.axes.hi).element_sum(),
+            )
+        };
+        inputs.phi_area[i] = (self.phi * self.bounds.padded_area(pad) * scale) as f32;
+        inputs.a_sq[i] = a_sq;
+        inputs.a_min[i] = a_min;
+        inputs.cos_o[i] = self.cos_o;
+        inputs.cos_e[i] = self.cos_e;
     }
 }
 
-/// M_Ω(θo, θe): the integral of the clamped emission bound over the sphere,
-/// 2π(1 − cos θo) + π/2·(2θw sin θo − cos(θo − 2θw) − 2θo sin θo + cos θo)
-/// with θw = min(θo + θe, π); in f32 with an approximate arccosine (it only
-/// ranks splits), written without branches on the cone's width.
-pub(super) fn orientation_measure(cos_o: f32, cos_e: f32) -> f64 {
-    use std::f32::consts::{FRAC_PI_2, PI};
-    let (co, so) = (cos_o, sin_of(cos_o));
-    let (ce, se) = (cos_e, sin_of(cos_e));
-    let theta_o = approx_acos(co);
-    let theta_e = if ce == 0.0 {
-        FRAC_PI_2
-    } else {
-        approx_acos(ce)
+/// Sides whose costs [`CostInputs::costs`] evaluates together: the prefix and
+/// suffix runs of one axis' cuts.
+const BATCH: usize = 2 * MAX_CUT_ITEMS;
+
+/// What the costs of up to [`BATCH`] sides need, one array per field so that
+/// they are evaluated in SIMD lanes.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct CostInputs {
+    /// Φ · padded surface area, scaled (to at most 1 in a node).
+    pub(super) phi_area: [f32; BATCH],
+    /// |a|², a being the sum of the corners of the box holding the unit axes
+    /// (1 for a single light).
+    pub(super) a_sq: [f32; BATCH],
+    /// The smallest a·w over that box, Σ min(a·lo, a·hi) (1 for a single light).
+    pub(super) a_min: [f32; BATCH],
+    /// Widest θo and θe, as cosines.
+    pub(super) cos_o: [f32; BATCH],
+    pub(super) cos_e: [f32; BATCH],
+}
+
+impl CostInputs {
+    pub(super) const ZERO: CostInputs = CostInputs {
+        phi_area: [0.0; BATCH],
+        a_sq: [0.0; BATCH],
+        a_min: [0.0; BATCH],
+        cos_o: [1.0; BATCH],
+        cos_e: [1.0; BATCH],
     };
+
+    /// pbrt-v4's split cost of sides `..n` without the axis factor,
+    /// Φ · M_Ω(θo, θe) · surface area (scaled), θo being that of a cone
+    /// holding every light's normal cone: about the direction a, the smallest
+    /// a·w/|a| bounds the axes' angle from a, and the widest θo is added to
+    /// it. Four sides at a time in SIMD lanes; entries from `n` up to the
+    /// next multiple of 4 are unspecified.
+    pub(super) fn costs(&self, n: usize) -> [f32; BATCH] {
+        let mut costs = [0.0; BATCH];
+        for i in (0..n).step_by(4) {
+            let lanes = |field: &[f32; BATCH]| Vec4::from_slice(&field[i..i + 4]);
+            let (a_sq, cos_o) = (lanes(&self.a_sq), lanes(&self.cos_o));
+            let nearest = Vec4::select(
+                a_sq.cmpgt(Vec4::ZERO),
+                (lanes(&self.a_min) / a_sq.sqrt()).clamp(Vec4::NEG_ONE, Vec4::ONE),
+                Vec4::NEG_ONE,
+            );
+            // cos(θ + θo), θ the axes' angle from a; lane by lane, which the
+            // compiler still vectorises.
+            let widen = |n: f32, c: f32| cos_sum(n, c, sin_of(c));
+            let cos_half = Vec4::new(
+                widen(nearest.x, cos_o.x),
+                widen(nearest.y, cos_o.y),
+                widen(nearest.z, cos_o.z),
+                widen(nearest.w, cos_o.w),
+            );
+            let cost = lanes(&self.phi_area) * orientation_measure(cos_half, lanes(&self.cos_e));
+            cost.write_to_slice(&mut costs[i..i + 4]);
+        }
+        costs
+    }
+}
+
+/// [`sin_of`] in four lanes.
+#[inline(always)]
+fn sin_of4(cos: Vec4) -> Vec4 {
+    let sin_sq = (Vec4::ONE - cos) * (Vec4::ONE + cos);
+    Vec4::select(sin_sq.cmpgt(Vec4::ZERO), sin_sq.sqrt(), Vec4::ZERO)
+}
+
+/// M_Ω(θo, θe) in four lanes: the integral of the clamped emission bound over
+/// the sphere, 2π(1 − cos θo) + π/2·(2θw sin θo − cos(θo − 2θw) − 2θo sin θo +
+/// cos θo) with θw = min(θo + θe, π); in f32 with an approximate arccosine (it
+/// only ranks splits).
+#[inline(always)]
+pub(super) fn orientation_measure(co: Vec4, ce: Vec4) -> Vec4 {
+    use std::f32::consts::{FRAC_PI_2, PI};
+    let (so, se) = (sin_of4(co), sin_of4(ce));
+    let theta_o = approx_acos(co);
+    let theta_e = Vec4::select(
+        ce.cmpeq(Vec4::ZERO),
+        Vec4::splat(FRAC_PI_2),
+        approx_acos(ce),
+    );
     // θw − θo, and cos(θo − 2θw) = cos(θo + 2θe) unless θw = π.
     let spread = theta_e.min(PI - theta_o);
-    let wraps = theta_o + theta_e >= PI;
+    let wraps = (theta_o + theta_e).cmpge(Vec4::splat(PI));
     let cos_o_2e = co * (2.0 * ce * ce - 1.0) - so * (2.0 * se * ce);
-    let cos_o_2w = if wraps { co } else { cos_o_2e };
-    f64::from(2.0 * PI * (1.0 - co) + FRAC_PI_2 * (2.0 * spread * so - cos_o_2w + co))
+    let cos_o_2w = Vec4::select(wraps, co, cos_o_2e);
+    2.0 * PI * (1.0 - co) + FRAC_PI_2 * (2.0 * spread * so - cos_o_2w + co)
 }
 
-/// arccos within 7e-5 (Abramowitz & Stegun 4.4.45).
-pub(super) fn approx_acos(x: f32) -> f32 {
-    let a = x.abs().min(1.0);
-    let t =
-        (1.0 - a).sqrt() * (1.570_728_8 + a * (-0.212_114_4 + a * (0.074_261 - 0.018_729_3 * a)));
-    if x < 0.0 {
-        std::f32::consts::PI - t
-    } else {
-        t
-    }
+/// arccos within 7e-5 (Abramowitz & Stegun 4.4.45), in four lanes.
+#[inline(always)]
+pub(super) fn approx_acos(x: Vec4) -> Vec4 {
+    let a = x.abs().min(Vec4::ONE);
+    let poly = 1.570_728_8 + a * (-0.212_114_4 + a * (0.074_261 - 0.018_729_3 * a));
+    let t = (Vec4::ONE - a).sqrt() * poly;
+    Vec4::select(x.cmplt(Vec4::ZERO), std::f32::consts::PI - t, t)
 }
 
 /// Most items [`cheapest_cut`] handles: buckets, or lights of a small node.
@@ -245,29 +301,38 @@ pub(super) const SMALL_NODE: usize = MAX_CUT_ITEMS;
 
 /// The cheapest cut of a sequence of `n` ≤ [`MAX_CUT_ITEMS`] sets (empty ones
 /// allowed) into two non-empty runs, as (Σ side costs, length of the first
-/// run); every distinct cut is tried.
+/// run); every distinct cut is tried. `scale` is 1/(Φ · padded area) of the
+/// whole sequence.
 pub(super) fn cheapest_cut(
     n: usize,
     item: impl Fn(usize) -> Side,
     pad: f32,
-) -> Option<(f64, usize)> {
-    let mut suffix_cost = [f64::INFINITY; MAX_CUT_ITEMS];
+    scale: f64,
+) -> Option<(f32, usize)> {
+    // Entry k: the first k + 1 items; entry n − 2 + k: items k.. .
+    let mut inputs = CostInputs::ZERO;
+    let mut cuts = [false; MAX_CUT_ITEMS];
     let mut suffix = Side::EMPTY;
     for k in (1..n).rev() {
         suffix.add(&item(k));
         if suffix.count > 0 {
-            suffix_cost[k] = suffix.cost(pad);
+            suffix.cost_inputs(&mut inputs, n - 2 + k, pad, scale);
+            cuts[k - 1] = true;
         }
     }
     let mut prefix = Side::EMPTY;
-    let mut best: Option<(f64, usize)> = None;
-    for k in 0..n - 1 {
+    for (k, cut) in cuts.iter_mut().enumerate().take(n - 1) {
         let next = item(k);
-        if next.count == 0 {
-            continue;
-        }
         prefix.add(&next);
-        let cost = prefix.cost(pad) + suffix_cost[k + 1];
+        *cut &= next.count > 0;
+        if *cut {
+            prefix.cost_inputs(&mut inputs, k, pad, scale);
+        }
+    }
+    let costs = inputs.costs(2 * (n - 1));
+    let mut best: Option<(f32, usize)> = None;
+    for k in (0..n - 1).filter(|&k| cuts[k]) {
+        let cost = costs[k] + costs[n - 1 + k];
         if cost.is_finite() && best.is_none_or(|b| cost < b.0) {
             best = Some((cost, k + 1));
         }
@@ -381,14 +446,17 @@ pub(super) fn choose_split(prims: &mut [Prim], centroids: Aabb) -> Split {
     split.unwrap_or(median)
 }
 
-/// The split axis' weight Kr = (largest extent)/(extent along the axis), and
-/// the padding for [`Aabb::padded_area`], from the node's box.
-pub(super) fn axis_weights(node: &Aabb) -> ([f64; 3], f32) {
-    let extent = node.extent();
+/// The split axis' weight Kr = (largest extent)/(extent along the axis), the
+/// padding for [`Aabb::padded_area`] and the `scale` of [`cheapest_cut`], from
+/// the node's lights.
+pub(super) fn axis_weights(node: &Side) -> ([f64; 3], f32, f64) {
+    let extent = node.bounds.extent();
     let largest = extent.max_element();
+    let pad = 1e-3 * largest;
     (
         [0, 1, 2].map(|k| f64::from(largest / extent[k])),
-        1e-3 * largest,
+        pad,
+        1.0 / (node.phi * node.bounds.padded_area(pad)),
     )
 }
 
@@ -397,18 +465,17 @@ pub(super) fn binned_split(prims: &mut [Prim], centroids: Aabb) -> Option<Split>
     let binner = Binner::new(&centroids);
     let bins = binner.bin(prims);
     let row = bins.iter().zip(binner.active).find(|(_, a)| *a)?.0;
-    let node = row
-        .iter()
-        .fold(Aabb::EMPTY, |b, bin| b.merge(&bin.side.bounds));
-    let (kr, pad) = axis_weights(&node);
+    let mut node = Side::EMPTY;
+    row.iter().for_each(|bin| node.add(&bin.side));
+    let (kr, pad, scale) = axis_weights(&node);
     let mut best: Option<(f64, usize, usize)> = None;
     for (axis, row) in bins
         .iter()
         .enumerate()
         .filter(|(axis, _)| binner.active[*axis])
     {
-        if let Some((cost, cut)) = cheapest_cut(BUCKETS, |k| row[k].side, pad) {
-            let cost = kr[axis] * cost;
+        if let Some((cost, cut)) = cheapest_cut(BUCKETS, |k| row[k].side, pad, scale) {
+            let cost = kr[axis] * f64::from(cost);
             if best.is_none_or(|b| cost < b.0) {
                 best = Some((cost, axis, cut));
             }
@@ -436,14 +503,15 @@ pub(super) fn small_split(prims: &mut [Prim], centroids: Aabb) -> Option<Split> 
         std::array::from_fn(|k| prims.get(k).map_or(Side::EMPTY, Side::of));
     let keys: [Vec3A; SMALL_NODE] =
         std::array::from_fn(|k| sides[k].bounds.lo + sides[k].bounds.hi);
-    let node = sides.iter().fold(Aabb::EMPTY, |b, s| b.merge(&s.bounds));
-    let (kr, pad) = axis_weights(&node);
+    let mut node = Side::EMPTY;
+    sides.iter().for_each(|side| node.add(side));
+    let (kr, pad, scale) = axis_weights(&node);
     let active = centroids.extent().cmpgt(Vec3A::ZERO);
     let mut best: Option<(f64, [u8; SMALL_NODE], usize)> = None;
     for axis in (0..3).filter(|&k| active.test(k)) {
         let order = sorted_along(&keys[..n], axis);
-        if let Some((cost, cut)) = cheapest_cut(n, |k| sides[usize::from(order[k])], pad) {
-            let cost = kr[axis] * cost;
+        if let Some((cost, cut)) = cheapest_cut(n, |k| sides[usize::from(order[k])], pad, scale) {
+            let cost = kr[axis] * f64::from(cost);
             if best.is_none_or(|b| cost < b.0) {
                 best = Some((cost, order, cut));
             }
