@@ -296,8 +296,12 @@ pub(super) fn approx_acos(x: Vec4) -> Vec4 {
 /// Most items [`cheapest_cut`] handles: buckets, or lights of a small node.
 pub(super) const MAX_CUT_ITEMS: usize = 16;
 /// Nodes with at most this many lights try every cut of their lights sorted
-/// along each axis instead of binning.
+/// along one axis instead of binning.
 pub(super) const SMALL_NODE: usize = MAX_CUT_ITEMS;
+/// Nodes with at most this many lights are cut in the middle of that order:
+/// their subtrees are flattened into one wide node, where the split rarely
+/// shows.
+pub(super) const TINY_NODE: usize = 4;
 
 /// The cheapest cut of a sequence of `n` ≤ [`MAX_CUT_ITEMS`] sets (empty ones
 /// allowed) into two non-empty runs, as (Σ side costs, length of the first
@@ -430,8 +434,9 @@ pub(super) struct Split {
 }
 
 /// Splits `prims` (≥ 2), reordering them so the left part comes first: by
-/// the binned cost, or by trying every cut for small nodes; a median split
-/// when the centroids cannot be separated.
+/// the binned cost, by trying every cut along one axis for small nodes, in
+/// the middle of that order for tiny ones; a median split when the centroids
+/// cannot be separated.
 pub(super) fn choose_split(prims: &mut [Prim], centroids: Aabb) -> Split {
     let median = Split {
         mid: prims.len() / 2,
@@ -495,29 +500,32 @@ pub(super) fn binned_split(prims: &mut [Prim], centroids: Aabb) -> Option<Split>
     (0 < mid && mid < prims.len()).then_some(split)
 }
 
-/// Split of a small node: the lights sorted by centroid along each axis, every
-/// cut tried.
+/// Split of a small node: its lights sorted by centroid along the axis where
+/// the centroids spread most, then every cut tried (the other axes rarely win
+/// at this size and would cost three times as much), or the middle one for
+/// [`TINY_NODE`]s.
 pub(super) fn small_split(prims: &mut [Prim], centroids: Aabb) -> Option<Split> {
     let n = prims.len();
     let sides: [Side; SMALL_NODE] =
         std::array::from_fn(|k| prims.get(k).map_or(Side::EMPTY, Side::of));
     let keys: [Vec3A; SMALL_NODE] =
         std::array::from_fn(|k| sides[k].bounds.lo + sides[k].bounds.hi);
-    let mut node = Side::EMPTY;
-    sides.iter().for_each(|side| node.add(side));
-    let (kr, pad, scale) = axis_weights(&node);
-    let active = centroids.extent().cmpgt(Vec3A::ZERO);
-    let mut best: Option<(f64, [u8; SMALL_NODE], usize)> = None;
-    for axis in (0..3).filter(|&k| active.test(k)) {
-        let order = sorted_along(&keys[..n], axis);
-        if let Some((cost, cut)) = cheapest_cut(n, |k| sides[usize::from(order[k])], pad, scale) {
-            let cost = kr[axis] * f64::from(cost);
-            if best.is_none_or(|b| cost < b.0) {
-                best = Some((cost, order, cut));
-            }
-        }
+    let spread = keys[..n]
+        .iter()
+        .fold(Aabb::EMPTY, |b, &k| b.merge(&Aabb::point(k)))
+        .extent();
+    if spread.max_element() <= 0.0 {
+        return None;
     }
-    let (_, order, mid) = best?;
+    let order = sorted_along(&keys[..n], spread.max_position());
+    let mid = if n <= TINY_NODE {
+        n / 2
+    } else {
+        let mut node = Side::EMPTY;
+        sides.iter().for_each(|side| node.add(side));
+        let (_, pad, scale) = axis_weights(&node);
+        cheapest_cut(n, |k| sides[usize::from(order[k])], pad, scale)?.1
+    };
     let sorted: [Prim; SMALL_NODE] = std::array::from_fn(|k| prims[usize::from(order[k])]);
     prims.copy_from_slice(&sorted[..n]);
     Some(Split {
