@@ -296,19 +296,3 @@ pub(crate) fn emission(uv: Vec2, wrap: (u32, u32)) -> DVec3 {
 pub(crate) fn luminance64(c: DVec3) -> f64 {
     0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
 }
-
-/// CRC-32 (IEEE) of a PNG chunk's type and data.
-pub(crate) fn crc32(bytes: &[u8]) -> u32 {
-    let mut crc = !0u32;
-    for &b in bytes {
-        crc ^= b as u32;
-        for _ in 0..8 {
-            crc = if crc & 1 == 1 {
-                (crc >> 1) ^ 0xEDB8_8320
-            } else {
-                crc >> 1
-            };
-        }
-    }
-    !crc
-}

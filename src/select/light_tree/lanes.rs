@@ -34,7 +34,7 @@ use super::*;
 const SHARP_RADIUS: f32 = 0.25;
 /// The least share of pbrt's conservative cosine a weighted cosine keeps.
 const CONSERVATIVE_SHARE: f32 = 0.1;
-/// The distance is clamped from below at this fraction of the radius, squared.
+/// (d/r)² below which the distance is clamped: d ≥ r/2.
 const MIN_DISTANCE_SQ: f32 = 0.25;
 /// The least weighted cosine inside the bounding sphere (where pbrt's is 1).
 const INSIDE_FLOOR: f32 = 0.5;
@@ -60,6 +60,20 @@ fn minus(cos_a: f32, sin_a: f32, cos_b: f32, sin_b: f32) -> (f32, f32) {
             max(sin_a * cos_b - cos_a * sin_b, 0.0),
         )
     }
+}
+
+/// One weighted cosine (E or R in the module header): `cos_sharp` over the quarter sphere
+/// (1 inside it), at least β·`cos_whole` (pbrt's, over the whole sphere) outside the whole
+/// sphere and `INSIDE_FLOOR` inside it, and at least `COS_SLACK`.
+#[inline(always)]
+fn weighted(cos_sharp: f32, cos_whole: f32, outside_sharp: bool, outside: bool) -> f32 {
+    let sharp = if outside_sharp { cos_sharp } else { 1.0 };
+    let floor = if outside {
+        CONSERVATIVE_SHARE * cos_whole
+    } else {
+        INSIDE_FLOOR
+    };
+    max(max(sharp, floor), COS_SLACK)
 }
 
 /// The importance of each lane of `node` at receiver `p` with unit normal `n`
@@ -108,27 +122,15 @@ fn lane(node: &WideNode, k: usize, p: Vec3, n: Vec3, receiver: bool) -> f32 {
     let sin_s = if sin_s < 1.0 { sin_s } else { 1.0 };
     let cos_s = sin_of(sin_s);
     let (cos_p_sharp, _) = minus(cos_x, sin_x, cos_s, sin_s);
-    let cos_p_sharp = if outside_sharp { cos_p_sharp } else { 1.0 };
-    let floor_p = if outside {
-        CONSERVATIVE_SHARE * cos_p
-    } else {
-        INSIDE_FLOOR
-    };
-    let emitted = max(max(cos_p_sharp, floor_p), COS_SLACK);
+    let emitted = weighted(cos_p_sharp, cos_p, outside_sharp, outside);
 
     let cos_i = -(dir[0] * n.x + dir[1] * n.y + dir[2] * n.z);
     let sin_i = sin_of(cos_i);
     let (cos_r, _) = minus(cos_i, sin_i, cos_b, sin_b);
     let receiver_rejects = receiver & (cos_r <= -COS_SLACK);
     let (cos_r_sharp, _) = minus(cos_i, sin_i, cos_s, sin_s);
-    let cos_r_sharp = if outside_sharp { cos_r_sharp } else { 1.0 };
-    let floor_r = if outside {
-        CONSERVATIVE_SHARE * cos_r
-    } else {
-        INSIDE_FLOOR
-    };
     let received = if receiver {
-        max(max(cos_r_sharp, floor_r), COS_SLACK)
+        weighted(cos_r_sharp, cos_r, outside_sharp, outside)
     } else {
         1.0
     };

@@ -501,9 +501,9 @@ pub(super) fn binned_split(prims: &mut [Prim], centroids: Aabb) -> Option<Split>
 }
 
 /// Split of a small node: its lights sorted by centroid along the axis where
-/// the centroids spread most, then every cut tried (the other axes rarely win
-/// at this size and would cost three times as much), or the middle one for
-/// [`TINY_NODE`]s.
+/// the centroids spread most, then every cut tried, or the middle one for
+/// [`TINY_NODE`]s (trying all three axes cost three times as much and left
+/// `cargo bench --bench selection_quality`'s bvh χ² within 0.3%).
 pub(super) fn small_split(prims: &mut [Prim], centroids: Aabb) -> Option<Split> {
     let n = prims.len();
     let sides: [Side; SMALL_NODE] =
