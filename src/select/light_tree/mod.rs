@@ -23,8 +23,10 @@
 //!   coding error, cosines rounded down. Lights are renumbered into leaf order,
 //!   so every subtree covers a contiguous range of light ids.
 //! - The traversed tree is 8-wide (`wide`): the binary tree collapsed by
-//!   opening the largest child until eight are gathered, each child's decoded
-//!   bounds stored as f32 lanes (bounding sphere, signed Φ, cone). A lane keeps
+//!   opening the largest child until eight are gathered, each child's bounds
+//!   coded again in 16-bit fields relative to its node (bounding sphere on the
+//!   node's grid, cone axis, cosines; Φ in f32), 256 bytes a node, decoded to
+//!   f32 lanes as a node is evaluated. A lane keeps
 //!   the first light id of its range, so `pmf` finds the lane holding a light
 //!   without parent links or per-light bit trails. Quantisation can cost
 //!   efficiency but never gives 0 to a child that holds a light able to reach

@@ -3,7 +3,7 @@
 //! cone axis as a 2×16-bit octahedral code with θo widened by its coding error.
 //! Every rounding enlarges the bound, so a node never loses a reachable light.
 
-use glam::{Vec3, Vec3A};
+use glam::{DVec3, Vec3, Vec3A};
 
 use super::*;
 
@@ -124,6 +124,73 @@ pub(super) fn encode_cone(w: Vec3, cos_o: f32) -> (u32, u32) {
     let theta = angle_sum((cos_o, ((1.0 - cos_o) * (1.0 + cos_o)).sqrt()), error);
     let slack = (1.0 - 0.5 * ANGLE_SLACK * ANGLE_SLACK, ANGLE_SLACK);
     (code, encode_cos(angle_sum(theta, slack).0))
+}
+
+/// The cone (w, cos θo) for a wide node's lane: w as three codes of [`AXIS_STEP`] and the
+/// [`encode_cos`] code of a θo widened by the angle between w and the decoded axis w', and by
+/// acos(min(|w'|, 1/|w'|)), the most by which the lanes' cos ∠(w', d) for a unit d, computed
+/// as w'·d, can overstate or understate the angle. Of the eight codes next to w's (each
+/// component rounded down or up), the one with |w'| nearest to 1 is kept, so the lanes'
+/// cosines are barely scaled.
+pub(super) fn encode_axis(w: Vec3, cos_o: f32) -> ([i16; 3], u32) {
+    if is_whole_sphere((w, cos_o)) {
+        return ([0, 0, i16::MAX], 0);
+    }
+    let w = w.as_dvec3().normalize();
+    let scale = f64::from(i16::MAX);
+    let whole = i64::from(i16::MAX).pow(2);
+    // Floors through integer conversion: `f64::floor` is a library call on x86-64 without
+    // SSE4.1.
+    let below = |x: f64| x as i64 - i64::from((x as i64) as f64 > x);
+    let floors = w.to_array().map(|c| below(c * scale));
+    let mut best = ([0i16; 3], i64::MAX);
+    for up in 0..8 {
+        let code = [0, 1, 2].map(|a| {
+            let c = floors[a] + (up >> a & 1);
+            c.clamp(-i64::from(i16::MAX), i64::from(i16::MAX)) as i16
+        });
+        // |length² − 1| in code units, exact in integers.
+        let off = (code.iter().map(|&c| i64::from(c).pow(2)).sum::<i64>() - whole).abs();
+        if off < best.1 {
+            best = (code, off);
+        }
+    }
+    let code = best.0;
+    let decoded = DVec3::from_array(code.map(|c| f64::from(f32::from(c) * AXIS_STEP)));
+    let length = decoded.length();
+    let turn = (w.dot(decoded) / length, w.cross(decoded).length() / length);
+    let stretch = length.min(1.0 / length);
+    let stretch = (stretch, ((1.0 - stretch) * (1.0 + stretch)).max(0.0).sqrt());
+    let cos_o = f64::from(cos_o).clamp(-1.0, 1.0);
+    let theta = (cos_o, ((1.0 - cos_o) * (1.0 + cos_o)).sqrt());
+    let theta = angle_sum(angle_sum(theta, turn), stretch);
+    let slack = (1.0 - 0.5 * ANGLE_SLACK * ANGLE_SLACK, ANGLE_SLACK);
+    (code, encode_cos(angle_sum(theta, slack).0))
+}
+
+/// Largest radius code: below 65535, so a radius rounded up one more step still fits.
+const RADIUS_MAX: f64 = 65000.0;
+
+/// The radius step of a node whose lanes need radii `radii` (f64, ≥ 0).
+pub(super) fn radius_step(radii: impl Iterator<Item = f64>) -> f32 {
+    let largest = radii.fold(0.0, f64::max);
+    if largest > 0.0 {
+        ((largest / RADIUS_MAX) as f32).max(f32::MIN_POSITIVE)
+    } else {
+        0.0
+    }
+}
+
+/// A radius code whose decoding (code · `step`) is at least `radius`.
+pub(super) fn encode_radius(radius: f64, step: f32) -> u16 {
+    if radius <= 0.0 {
+        return 0;
+    }
+    let mut q = (radius / f64::from(step)).ceil();
+    while f64::from(q as f32 * step) < radius {
+        q += 1.0;
+    }
+    q as u16
 }
 
 /// (cos, sin) of α + β from those of α, β ∈ [0, π]; (−1, 0) once α + β ≥ π.

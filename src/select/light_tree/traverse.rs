@@ -192,7 +192,7 @@ impl LightBvh {
             let (lane, below) = choose_lane(&importances, target);
             pmf *= importances[lane] / total;
             u = ((target - below) / importances[lane]).clamp(0.0, LARGEST_BELOW_ONE);
-            let child = self.nodes[index].child[lane];
+            let child = self.nodes[index].child(lane);
             if child & LIGHT_LANE != 0 {
                 return (pmf > 0.0).then_some(((child & !LIGHT_LANE) as usize, pmf));
             }
@@ -242,7 +242,7 @@ impl LightBvh {
             if pmf == 0.0 {
                 return 0.0;
             }
-            let child = node.child[lane];
+            let child = node.child(lane);
             if child & LIGHT_LANE != 0 {
                 return if child & !LIGHT_LANE == light {
                     pmf

@@ -8,8 +8,10 @@
 //! sphere (replacing it, in place, by its two children) until eight lanes are
 //! filled or only leaves remain. Lanes keep light-id order, so each lane
 //! covers a contiguous id range starting at `first`, and `pmf` can find the
-//! lane holding a light without parent links.
+//! lane holding a light without parent links. The nodes of a node's interior
+//! lanes are consecutive, so one index per node finds them all.
 
+use glam::Vec3;
 use rayon::prelude::*;
 
 use super::*;
@@ -21,56 +23,117 @@ pub(super) const LIGHT_LANE: u32 = 1 << 31;
 /// `first` of an unused lane: larger than every light id.
 pub(super) const EMPTY_LANE: u32 = u32::MAX;
 
-/// Up to eight children's bounds in f32, one array per field (structure of
-/// arrays): 384 bytes, six cache lines, aligned to a cache line.
+/// Up to eight children's bounds, one array per field (structure of arrays), coded compactly:
+/// 256 bytes, four cache lines, aligned to a cache line. Each child's bounding sphere has its
+/// centre on a grid over the node's centres (16 bits an axis) and its radius as a 16-bit
+/// multiple of `radius_step`, both rounded so the sphere still holds the child's box; the cone
+/// axis as three 16-bit fractions of 1 rounded away from zero, θo widened by the coding
+/// error; cosines as [`encode_cos`] codes rounded down (every rounding enlarges the bound).
 #[repr(C, align(64))]
 #[derive(Clone, Copy, Debug)]
 pub(super) struct WideNode {
-    /// Centre of each child's bounding sphere.
-    pub(super) centre: [[f32; LANES]; 3],
-    /// Radius of that sphere ([`bounding_radius`] of the quantised box).
-    pub(super) radius: [f32; LANES],
+    /// Centre codes: centre = `origin` + code · `step`, axis by axis.
+    pub(super) centre: [[u16; LANES]; 3],
+    /// Radius codes: radius = code · `radius_step`.
+    pub(super) radius: [u16; LANES],
+    /// Normal cone axis w: component = code · [`AXIS_STEP`].
+    pub(super) axis: [[i16; LANES]; 3],
+    /// cos θo of the normal cone ([`decode_cos`] code).
+    pub(super) cos_o: [u16; LANES],
+    /// cos θe of the emission spread ([`decode_cos`] code).
+    pub(super) cos_e: [u16; LANES],
     /// Power Φ, negated for two-sided children; 0 in unused lanes.
     pub(super) signed_phi: [f32; LANES],
-    /// Normal cone axis w.
-    pub(super) axis: [[f32; LANES]; 3],
-    /// cos θo of the normal cone.
-    pub(super) cos_o: [f32; LANES],
-    /// cos θe of the emission spread.
-    pub(super) cos_e: [f32; LANES],
-    /// Index of the child wide node, or `LIGHT_LANE | light id`.
-    pub(super) child: [u32; LANES],
-    /// First light id of the lane's range ([`EMPTY_LANE`] if unused).
+    /// First light id of the lane's range ([`EMPTY_LANE`] if unused); a single light's id.
     pub(super) first: [u32; LANES],
+    pub(super) origin: [f32; 3],
+    pub(super) step: [f32; 3],
+    pub(super) radius_step: f32,
+    /// Index of the first child node; the interior lanes' nodes follow it in lane order.
+    pub(super) children: u32,
+    /// Bit k set: lane k holds a subtree (its node is a child), else a single light or nothing.
+    pub(super) interior: u8,
 }
+
+/// One unit of an axis component code.
+pub(super) const AXIS_STEP: f32 = 1.0 / i16::MAX as f32;
 
 impl WideNode {
     /// A node with every lane unused (Φ = 0: importance 0).
     pub(super) fn empty() -> WideNode {
         WideNode {
-            centre: [[0.0; LANES]; 3],
-            radius: [0.0; LANES],
+            centre: [[0; LANES]; 3],
+            radius: [0; LANES],
+            axis: [[0; LANES], [0; LANES], [i16::MAX; LANES]],
+            cos_o: [COS_MAX as u16; LANES],
+            cos_e: [COS_MAX as u16; LANES],
             signed_phi: [0.0; LANES],
-            axis: [[0.0; LANES], [0.0; LANES], [1.0; LANES]],
-            cos_o: [1.0; LANES],
-            cos_e: [1.0; LANES],
-            child: [0; LANES],
             first: [EMPTY_LANE; LANES],
+            origin: [0.0; 3],
+            step: [0.0; 3],
+            radius_step: 0.0,
+            children: 0,
+            interior: 0,
         }
     }
 
-    /// Stores the decoded bounds of binary `node` in lane `k`.
-    fn set_lane(&mut self, k: usize, node: &Node, grid: &Grid) {
-        let b = node.bounds(grid);
-        let (centre, _) = b.centre_and_half_diagonal_sq();
-        for axis in 0..3 {
-            self.centre[axis][k] = centre[axis];
-            self.axis[axis][k] = b.w[axis];
+    /// The child of lane `k`: the index of its node, or `LIGHT_LANE | light id`.
+    #[inline(always)]
+    pub(super) fn child(&self, k: usize) -> u32 {
+        let bit = 1u8 << k;
+        if self.interior & bit != 0 {
+            self.children + (self.interior & (bit - 1)).count_ones()
+        } else {
+            LIGHT_LANE | self.first[k]
         }
-        self.radius[k] = node.radius;
-        self.signed_phi[k] = if b.two_sided { -b.phi } else { b.phi };
-        self.cos_o[k] = b.cos_theta_o;
-        self.cos_e[k] = b.cos_theta_e;
+    }
+
+    /// The node of `lanes` (binary nodes with their ranges), interior lanes' nodes numbered
+    /// from `children` on.
+    fn new(binary: &[Node], grid: &Grid, lanes: &[Lane], children: u32) -> WideNode {
+        let mut node = WideNode::empty();
+        let mut bounds = [(binary[0].bounds(grid), Vec3::ZERO, 0.0); LANES];
+        let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
+        for (lane, bounds) in lanes.iter().zip(&mut bounds) {
+            let b = &binary[lane.index];
+            let decoded = b.bounds(grid);
+            let centre = decoded.centre_and_half_diagonal_sq().0;
+            (lo, hi) = (lo.min(centre), hi.max(centre));
+            *bounds = (decoded, centre, b.radius);
+        }
+        let centres = Grid::new(lo, hi);
+        let mut codes = [([0u16; 3], 0.0f64); LANES];
+        for (&(_, c, r), code) in bounds.iter().zip(&mut codes).take(lanes.len()) {
+            let q = centres.encode(c, false);
+            let moved = centres.decode(q).as_dvec3().distance(c.as_dvec3());
+            *code = (q, f64::from(r) + moved);
+        }
+        let radius_step = radius_step(codes.iter().map(|&(_, r)| r));
+        (node.origin, node.step) = (centres.origin.into(), centres.step.into());
+        node.radius_step = radius_step;
+        node.children = children;
+        for (k, ((lane, (b, _, _)), (centre, radius))) in
+            lanes.iter().zip(&bounds).zip(&codes).enumerate()
+        {
+            for (field, &code) in node.centre.iter_mut().zip(centre) {
+                field[k] = code;
+            }
+            node.radius[k] = encode_radius(*radius, radius_step);
+            let (axis, cos_o) = encode_axis(b.w, b.cos_theta_o);
+            for (field, code) in node.axis.iter_mut().zip(axis) {
+                field[k] = code;
+            }
+            node.cos_o[k] = cos_o as u16;
+            node.cos_e[k] = encode_cos(f64::from(b.cos_theta_e)) as u16;
+            node.signed_phi[k] = if b.two_sided { -b.phi } else { b.phi };
+            node.first[k] = lane.first as u32;
+            if binary[lane.index].is_leaf() {
+                debug_assert_eq!(binary[lane.index].link as usize, lane.first);
+            } else {
+                node.interior |= 1 << k;
+            }
+        }
+        node
     }
 
     /// The lane whose id range holds `light`: the last used lane starting at
@@ -95,9 +158,10 @@ struct Lane {
 const PARALLEL_COLLAPSE_MIN: usize = 1 << 14;
 
 /// The wide tree of the binary depth-first tree `binary` (root at 0): wide node 0 is the root,
-/// and a node's children come after it. The top is collapsed first, down to lanes of fewer than
-/// [`PARALLEL_COLLAPSE_MIN`] lights; the subtrees below those lanes are counted, given their
-/// ranges of the list, and collapsed into them in parallel.
+/// and the nodes of a node's interior lanes are consecutive, after it. The top is collapsed
+/// first, down to lanes of fewer than [`PARALLEL_COLLAPSE_MIN`] lights, whose nodes get their
+/// places there; the subtrees below those lanes are counted, given their ranges of the list,
+/// and collapsed into them in parallel.
 pub(super) fn collapse(binary: &[Node], grid: &Grid) -> Vec<WideNode> {
     if binary.is_empty() {
         return Vec::new();
@@ -107,24 +171,28 @@ pub(super) fn collapse(binary: &[Node], grid: &Grid) -> Vec<WideNode> {
         first: 0,
         count: binary.len().div_ceil(2),
     };
-    // (lane, node, lane slot) of each subtree left for later.
+    // (lane, index of its node) of each subtree left for later.
     let mut deferred = Vec::new();
     let mut wide = vec![WideNode::empty()];
     let mut pending = vec![(root, 0)];
-    while let Some((start, slot)) = pending.pop() {
-        wide[slot] = wide_node(binary, grid, start, |k, lane| {
-            if lane.count < PARALLEL_COLLAPSE_MIN {
-                deferred.push((lane, slot, k));
-                return 0;
-            }
+    while let Some((start, at)) = pending.pop() {
+        let lanes = open(binary, start);
+        let children = wide.len() as u32;
+        for &lane in interior(binary, &lanes) {
+            let child = (lane, wide.len());
             wide.push(WideNode::empty());
-            pending.push((lane, wide.len() - 1));
-            (wide.len() - 1) as u32
-        });
+            if lane.count < PARALLEL_COLLAPSE_MIN {
+                deferred.push(child);
+            } else {
+                pending.push(child);
+            }
+        }
+        wide[at] = WideNode::new(binary, grid, &lanes, children);
     }
+    // The nodes below each deferred lane's own.
     let counts: Vec<usize> = deferred
         .par_iter()
-        .map(|&(lane, _, _)| count_wide(binary, lane))
+        .map(|&(lane, _)| count_wide(binary, lane) - 1)
         .collect();
     // Sized once: the nodes are over-aligned, so growing or shrinking the list would copy it
     // (the system allocator's realloc does not keep a 64-byte alignment).
@@ -134,60 +202,55 @@ pub(super) fn collapse(binary: &[Node], grid: &Grid) -> Vec<WideNode> {
     let mut blocks = Vec::with_capacity(deferred.len());
     let mut rest = &mut wide[top..];
     let mut base = top;
-    for (&(lane, slot, k), &count) in deferred.iter().zip(&counts) {
+    for (&(lane, at), &count) in deferred.iter().zip(&counts) {
         let (block, after) = rest.split_at_mut(count);
-        blocks.push((lane, block, base as u32, slot, k));
+        blocks.push((lane, at, block, base as u32));
         rest = after;
         base += count;
     }
-    let roots: Vec<(usize, usize, u32)> = blocks
+    let roots: Vec<(usize, WideNode)> = blocks
         .into_par_iter()
-        .map(|(lane, block, base, slot, k)| {
-            collapse_block(binary, grid, lane, block, base);
-            (slot, k, base)
-        })
+        .map(|(lane, at, block, base)| (at, collapse_block(binary, grid, lane, block, base)))
         .collect();
-    for (slot, k, base) in roots {
-        wide[slot].child[k] = base;
+    for (at, node) in roots {
+        wide[at] = node;
     }
     wide
 }
 
-/// The wide node of lanes `open(start)`: their bounds, first ids and children, an interior
-/// lane's child index being `child(lane slot, lane)`.
-fn wide_node(
+/// The interior lanes among `lanes`, in lane order.
+fn interior<'a>(binary: &'a [Node], lanes: &'a [Lane]) -> impl Iterator<Item = &'a Lane> + 'a {
+    lanes.iter().filter(|lane| !binary[lane.index].is_leaf())
+}
+
+/// Collapses the subtree of interior lane `start`: returns its node and writes the nodes
+/// below it into `block` (exactly their number, from [`count_wide`]), whose first node has
+/// index `base` in the whole list.
+fn collapse_block(
     binary: &[Node],
     grid: &Grid,
     start: Lane,
-    mut child: impl FnMut(usize, Lane) -> u32,
+    block: &mut [WideNode],
+    base: u32,
 ) -> WideNode {
-    let mut node = WideNode::empty();
-    for (k, lane) in open(binary, start).into_iter().flatten().enumerate() {
-        let b = &binary[lane.index];
-        node.set_lane(k, b, grid);
-        node.first[k] = lane.first as u32;
-        node.child[k] = if b.is_leaf() {
-            LIGHT_LANE | b.link
-        } else {
-            child(k, lane)
-        };
-    }
-    node
-}
-
-/// Collapses the subtree of lane `start` into `block` (exactly its size, from
-/// [`count_wide`]), whose first node has index `base` in the whole list.
-fn collapse_block(binary: &[Node], grid: &Grid, start: Lane, block: &mut [WideNode], base: u32) {
-    let mut used = 1;
-    let mut pending = vec![(start, 0)];
-    while let Some((start, slot)) = pending.pop() {
-        block[slot] = wide_node(binary, grid, start, |_, lane| {
-            pending.push((lane, used));
+    let mut used = 0;
+    let mut root = WideNode::empty();
+    let mut pending = vec![(start, None)];
+    while let Some((start, at)) = pending.pop() {
+        let lanes = open(binary, start);
+        let children = base + used as u32;
+        for &lane in interior(binary, &lanes) {
+            pending.push((lane, Some(used)));
             used += 1;
-            base + used as u32 - 1
-        });
+        }
+        let node = WideNode::new(binary, grid, &lanes, children);
+        match at {
+            Some(at) => block[at] = node,
+            None => root = node,
+        }
     }
     debug_assert_eq!(used, block.len());
+    root
 }
 
 /// How many wide nodes the subtree of lane `start` makes: one for its root and one per
@@ -196,11 +259,9 @@ fn count_wide(binary: &[Node], start: Lane) -> usize {
     let mut count = 1;
     let mut pending = vec![start];
     while let Some(start) = pending.pop() {
-        for lane in open(binary, start).into_iter().flatten() {
-            if !binary[lane.index].is_leaf() {
-                count += 1;
-                pending.push(lane);
-            }
+        for &lane in interior(binary, &open(binary, start)) {
+            count += 1;
+            pending.push(lane);
         }
     }
     count
@@ -209,7 +270,7 @@ fn count_wide(binary: &[Node], start: Lane) -> usize {
 /// The lanes of the wide node rooted at binary node `start`: `start` itself
 /// if it is a leaf, else its children, with the interior lane of largest
 /// radius opened while fewer than eight lanes are used.
-fn open(binary: &[Node], start: Lane) -> [Option<Lane>; LANES] {
+fn open(binary: &[Node], start: Lane) -> OpenLanes {
     let mut lanes = [None; LANES];
     lanes[0] = Some(start);
     let mut used = 1;
@@ -241,5 +302,26 @@ fn open(binary: &[Node], start: Lane) -> [Option<Lane>; LANES] {
         lanes[k + 1] = Some(right);
         used += 1;
     }
-    lanes
+    let mut open = OpenLanes {
+        lanes: [start; LANES],
+        used,
+    };
+    for (to, from) in open.lanes.iter_mut().zip(lanes.into_iter().flatten()) {
+        *to = from;
+    }
+    open
+}
+
+/// The lanes of one wide node, in light-id order: the first `used` of `lanes`.
+struct OpenLanes {
+    lanes: [Lane; LANES],
+    used: usize,
+}
+
+impl std::ops::Deref for OpenLanes {
+    type Target = [Lane];
+
+    fn deref(&self) -> &[Lane] {
+        &self.lanes[..self.used]
+    }
 }

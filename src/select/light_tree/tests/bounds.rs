@@ -5,9 +5,9 @@
 use super::*;
 
 #[test]
-fn nodes_are_32_and_384_bytes() {
+fn nodes_are_32_and_256_bytes() {
     assert_eq!(std::mem::size_of::<Node>(), 32);
-    assert_eq!(std::mem::size_of::<WideNode>(), 384);
+    assert_eq!(std::mem::size_of::<WideNode>(), 256);
 }
 
 #[test]
@@ -131,7 +131,10 @@ fn importance_with_angles(b: &LightBounds, radius: f32, p: Vec3, n: Vec3) -> Opt
         return None;
     }
     let (share, inside_floor) = (0.1, 0.5);
-    let theta_w = angle_between(b.w.as_dvec3(), p - centre);
+    // The lanes read the coded cone axis w' as it is (|w'| within 1.5e-5 of 1, θo
+    // widened for that): cos θw = w'·d for the unit direction d from the centre to p.
+    let cos_w = b.w.as_dvec3().dot((p - centre).normalize());
+    let theta_w = cos_w.clamp(-1.0, 1.0).acos();
     let theta_w = if b.two_sided {
         theta_w.min(std::f64::consts::PI - theta_w)
     } else {
@@ -187,20 +190,21 @@ fn lane_importance_matches_the_bound_written_with_angles() {
     for (p, n) in receivers(&mut rng, &scene, 300) {
         for node in &bvh.nodes {
             let lanes = importances(node, p, n);
+            let decoded = Decoded::of(node);
             for k in (0..LANES).filter(|&k| node.first[k] != EMPTY_LANE) {
                 let phi = node.signed_phi[k];
-                let c = Vec3::new(node.centre[0][k], node.centre[1][k], node.centre[2][k]);
-                let w = Vec3::new(node.axis[0][k], node.axis[1][k], node.axis[2][k]);
+                let at = |field: &[[f32; LANES]; 3]| Vec3::from_array(field.map(|f| f[k]));
+                let (c, w) = (at(&decoded.centre), at(&decoded.axis));
                 let b = LightBounds {
                     lo: c,
                     hi: c,
                     phi: phi.abs(),
                     w,
-                    cos_theta_o: node.cos_o[k],
-                    cos_theta_e: node.cos_e[k],
+                    cos_theta_o: decoded.cos_o[k],
+                    cos_theta_e: decoded.cos_e[k],
                     two_sided: phi < 0.0,
                 };
-                let Some(expected) = importance_with_angles(&b, node.radius[k], p, n) else {
+                let Some(expected) = importance_with_angles(&b, decoded.radius[k], p, n) else {
                     continue;
                 };
                 let got = f64::from(lanes[k]);

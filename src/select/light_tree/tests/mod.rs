@@ -207,8 +207,8 @@ pub(super) fn interior_lanes(
 ) -> impl Iterator<Item = (usize, usize)> + '_ {
     let node = &bvh.nodes[i];
     (0..LANES)
-        .filter(|&k| node.first[k] != EMPTY_LANE && node.child[k] & LIGHT_LANE == 0)
-        .map(|k| (k, node.child[k] as usize))
+        .filter(|&k| node.first[k] != EMPTY_LANE && node.child(k) & LIGHT_LANE == 0)
+        .map(|k| (k, node.child(k) as usize))
 }
 
 /// Number of wide nodes on the longest root-to-leaf path.

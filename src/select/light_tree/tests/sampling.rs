@@ -17,7 +17,7 @@ fn sampled_frequencies_match_pmf() {
             // Every light in one lane, every node but the root in one lane.
             let lanes = |leaf: bool| {
                 let is = |node: &WideNode, k: usize| {
-                    node.first[k] != EMPTY_LANE && (node.child[k] & LIGHT_LANE != 0) == leaf
+                    node.first[k] != EMPTY_LANE && (node.child(k) & LIGHT_LANE != 0) == leaf
                 };
                 bvh.nodes
                     .iter()
@@ -235,10 +235,10 @@ fn leaf_depth(bvh: &LightBvh, light: usize) -> usize {
     loop {
         let node = &bvh.nodes[index];
         let lane = node.lane_of(light as u32).expect("light in the tree");
-        if node.child[lane] & LIGHT_LANE != 0 {
+        if node.child(lane) & LIGHT_LANE != 0 {
             return depth;
         }
-        (index, depth) = (node.child[lane] as usize, depth + 1);
+        (index, depth) = (node.child(lane) as usize, depth + 1);
     }
 }
 
