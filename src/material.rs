@@ -24,6 +24,9 @@ pub struct Brdf {
     metallic: f32,
     specular: f32,
     alpha: f32,
+    /// p_s, the probability with which `sample` draws the specular lobe (see
+    /// `specular_probability`).
+    p_specular: f32,
 }
 
 impl Brdf {
@@ -33,43 +36,90 @@ impl Brdf {
 
     /// The material's BRDF with `base_color` in place of its factor (a textured base colour).
     pub fn with_base_color(m: &Material, base_color: Vec3) -> Brdf {
-        Brdf {
+        let mut brdf = Brdf {
             base_color,
             metallic: m.metallic,
             specular: m.specular,
             alpha: (m.roughness * m.roughness).max(MIN_ALPHA),
-        }
+            p_specular: 0.0,
+        };
+        brdf.p_specular = brdf.specular_probability();
+        brdf
     }
 
     /// f(wo, wi) per steradian (without the cosine), for unit vectors on the side of the unit
     /// shading normal `n`; zero when either direction lies below it.
     #[inline]
     pub fn eval(&self, n: Vec3, wo: Vec3, wi: Vec3) -> Vec3 {
-        let n_dot_v = n.dot(wo);
-        let n_dot_l = n.dot(wi);
-        if n_dot_v <= 0.0 || n_dot_l <= 0.0 {
-            return Vec3::ZERO;
-        }
-        let h = (wo + wi).normalize();
-        let v_dot_h = wo.dot(h).clamp(0.0, 1.0);
-        let schlick = (1.0 - v_dot_h).powi(5);
+        self.evaluate(n, wo, wi).f
+    }
+
+    /// f(wo, wi) as `eval`, with the terms `pdf_of` shares with it.
+    #[inline]
+    pub fn evaluate(&self, n: Vec3, wo: Vec3, wi: Vec3) -> Evaluation {
+        const BELOW: Evaluation = Evaluation {
+            f: Vec3::ZERO,
+            terms: None,
+        };
+        let Some(t) = self.half_vector_terms(n, wo, wi) else {
+            return BELOW;
+        };
+        let schlick = (1.0 - t.v_dot_h).powi(5);
         let f_dielectric = self.specular * (0.04 + 0.96 * schlick);
         let f_metal = self.base_color + (Vec3::ONE - self.base_color) * schlick;
         let m = self.metallic;
         let diffuse = (1.0 - m) * (1.0 - f_dielectric) * FRAC_1_PI * self.base_color;
         let fresnel = Vec3::splat((1.0 - m) * f_dielectric) + m * f_metal;
-        if fresnel == Vec3::ZERO {
-            return diffuse;
+        let f = if fresnel == Vec3::ZERO {
+            diffuse
+        } else {
+            let (n_dot_v, n_dot_l, a2) = (t.n_dot_v, t.n_dot_l, self.alpha * self.alpha);
+            let vis = 0.5
+                / (n_dot_l * (n_dot_v * n_dot_v * (1.0 - a2) + a2).sqrt()
+                    + n_dot_v * (n_dot_l * n_dot_l * (1.0 - a2) + a2).sqrt());
+            diffuse + fresnel * (t.d * vis)
+        };
+        Evaluation { f, terms: Some(t) }
+    }
+
+    /// The cosines n·wo, n·wi, wo·h and GGX D(h) = α²/(π·((n·h)²(α² − 1) + 1)²) at the half
+    /// vector h = (wo + wi)/|wo + wi|; None when either direction lies below n.
+    #[inline]
+    fn half_vector_terms(&self, n: Vec3, wo: Vec3, wi: Vec3) -> Option<HalfVectorTerms> {
+        let n_dot_v = n.dot(wo);
+        let n_dot_l = n.dot(wi);
+        if n_dot_v <= 0.0 || n_dot_l <= 0.0 {
+            return None;
         }
+        let h = (wo + wi).normalize();
         let a2 = self.alpha * self.alpha;
         let n_dot_h = n.dot(h).clamp(0.0, 1.0);
         let denom = n_dot_h * n_dot_h * (a2 - 1.0) + 1.0;
-        let d = a2 * FRAC_1_PI / (denom * denom);
-        let vis = 0.5
-            / (n_dot_l * (n_dot_v * n_dot_v * (1.0 - a2) + a2).sqrt()
-                + n_dot_v * (n_dot_l * n_dot_l * (1.0 - a2) + a2).sqrt());
-        diffuse + fresnel * (d * vis)
+        Some(HalfVectorTerms {
+            n_dot_v,
+            n_dot_l,
+            v_dot_h: wo.dot(h).clamp(0.0, 1.0),
+            d: a2 * FRAC_1_PI / (denom * denom),
+        })
     }
+}
+
+/// The terms of f(wo, wi) that the pdf of the same pair shares.
+#[derive(Clone, Copy, Debug)]
+struct HalfVectorTerms {
+    n_dot_v: f32,
+    n_dot_l: f32,
+    v_dot_h: f32,
+    d: f32,
+}
+
+/// f(wo, wi) for one pair of directions, keeping what `Brdf::pdf_of` needs of it, so a sample
+/// whose density is needed too (an MIS weight) pays for the half vector and D(h) once.
+#[derive(Clone, Copy, Debug)]
+pub struct Evaluation {
+    pub f: Vec3,
+    /// None when either direction lies below the shading normal.
+    terms: Option<HalfVectorTerms>,
 }
 
 impl Brdf {
@@ -96,7 +146,7 @@ impl Brdf {
     /// None when the sample falls below the surface or the material reflects nothing.
     pub fn sample(&self, n: Vec3, wo: Vec3, u_lobe: f32, u: [f32; 2]) -> Option<Vec3> {
         let frame = Frame::new(n);
-        let p_s = self.specular_probability();
+        let p_s = self.p_specular;
         let wi = if u_lobe < p_s {
             let wo_local = Vec3::new(frame.t.dot(wo), frame.b.dot(wo), frame.n.dot(wo));
             if wo_local.z <= 0.0 {
@@ -115,22 +165,26 @@ impl Brdf {
     /// The solid-angle pdf of `sample` producing wi:
     /// p_s · D(h)·G₁(wo) / (4·n·wo) + (1 − p_s) · n·wi/π.
     pub fn pdf(&self, n: Vec3, wo: Vec3, wi: Vec3) -> f32 {
-        let (n_dot_v, n_dot_l) = (n.dot(wo), n.dot(wi));
-        if n_dot_v <= 0.0 || n_dot_l <= 0.0 {
-            return 0.0;
-        }
-        let p_s = self.specular_probability();
-        let diffuse = (1.0 - p_s) * n_dot_l * FRAC_1_PI;
+        self.half_vector_terms(n, wo, wi)
+            .map_or(0.0, |t| self.pdf_from_terms(&t))
+    }
+
+    /// `pdf` of the pair that `evaluation` evaluated.
+    #[inline]
+    pub fn pdf_of(&self, evaluation: &Evaluation) -> f32 {
+        evaluation.terms.map_or(0.0, |t| self.pdf_from_terms(&t))
+    }
+
+    #[inline]
+    fn pdf_from_terms(&self, t: &HalfVectorTerms) -> f32 {
+        let p_s = self.p_specular;
+        let diffuse = (1.0 - p_s) * t.n_dot_l * FRAC_1_PI;
         if p_s == 0.0 {
             return diffuse;
         }
-        let h = (wo + wi).normalize();
-        let a2 = self.alpha * self.alpha;
-        let n_dot_h = n.dot(h).clamp(0.0, 1.0);
-        let denom = n_dot_h * n_dot_h * (a2 - 1.0) + 1.0;
-        let d = a2 * FRAC_1_PI / (denom * denom);
+        let (n_dot_v, a2) = (t.n_dot_v, self.alpha * self.alpha);
         let g1 = 2.0 * n_dot_v / (n_dot_v + (a2 + (1.0 - a2) * n_dot_v * n_dot_v).sqrt());
-        p_s * d * g1 / (4.0 * n_dot_v) + diffuse
+        p_s * t.d * g1 / (4.0 * n_dot_v) + diffuse
     }
 }
 
@@ -263,6 +317,41 @@ mod tests {
             // For a glossy metal the BRDF's own sampling must beat cosine sampling clearly.
             if m.metallic == 1.0 {
                 assert!(sa < 0.5 * sb, "{m:?}: σ own {sa} vs cosine {sb}");
+            }
+        }
+    }
+
+    /// The shared terms give exactly what `eval` and `pdf` give on their own, on both sides of
+    /// the surface and for a material with each lobe alone.
+    #[test]
+    fn evaluation_shares_terms_without_changing_f_or_pdf() {
+        let materials = [
+            Material::lambert(Vec3::new(0.2, 0.5, 0.8)),
+            Material {
+                metallic: 0.3,
+                roughness: 0.6,
+                ..Material::default()
+            },
+            Material {
+                base_color: Vec3::ONE,
+                metallic: 1.0,
+                roughness: 0.1,
+                ..Material::default()
+            },
+        ];
+        let mut rng = PixelRng::new(5, 6);
+        for m in &materials {
+            let brdf = Brdf::new(m);
+            for _ in 0..1000 {
+                let wo = warp::uniform_hemisphere(rng.next_2d());
+                let wi = warp::uniform_hemisphere(rng.next_2d()) * Vec3::new(1.0, 1.0, 0.9);
+                let wi = if rng.next_f32() < 0.2 { -wi } else { wi };
+                let e = brdf.evaluate(Vec3::Z, wo, wi);
+                assert_eq!(e.f, brdf.eval(Vec3::Z, wo, wi));
+                assert_eq!(
+                    brdf.pdf_of(&e).to_bits(),
+                    brdf.pdf(Vec3::Z, wo, wi).to_bits()
+                );
             }
         }
     }

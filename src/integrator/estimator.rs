@@ -282,7 +282,8 @@ impl Estimator<'_> {
             return NOTHING;
         }
         let le = self.light_emission(light, s.point, -wi);
-        let f = x.brdf.eval(x.ns, x.wo, wi);
+        let brdf = x.brdf.evaluate(x.ns, x.wo, wi);
+        let f = brdf.f;
         if le == Vec3::ZERO || f == Vec3::ZERO {
             return NOTHING;
         }
@@ -296,7 +297,7 @@ impl Estimator<'_> {
         let g = x.ns.dot(wi) * s.jacobian;
         let weight = if mis {
             // Both densities in solid angle: p_light = p_l · p(x') / jacobian.
-            power_heuristic(p_l * s.p_x / s.jacobian, x.brdf.pdf(x.ns, x.wo, wi))
+            power_heuristic(p_l * s.p_x / s.jacobian, x.brdf.pdf_of(&brdf))
         } else {
             1.0
         };
@@ -321,7 +322,8 @@ impl Estimator<'_> {
         if x.ng.dot(s.wi) <= 0.0 || s.pdf <= 0.0 {
             return NOTHING;
         }
-        let f = x.brdf.eval(x.ns, x.wo, s.wi);
+        let brdf = x.brdf.evaluate(x.ns, x.wo, s.wi);
+        let f = brdf.f;
         if f == Vec3::ZERO || s.radiance == Vec3::ZERO {
             return NOTHING;
         }
@@ -330,7 +332,7 @@ impl Estimator<'_> {
             return NOTHING;
         }
         let weight = if mis {
-            power_heuristic(p_l * s.pdf, x.brdf.pdf(x.ns, x.wo, s.wi))
+            power_heuristic(p_l * s.pdf, x.brdf.pdf_of(&brdf))
         } else {
             1.0
         };
@@ -398,14 +400,19 @@ impl Estimator<'_> {
             if x.ng.dot(wi) <= 0.0 {
                 continue;
             }
-            let pdf = x.brdf.pdf(x.ns, x.wo, wi);
             counts.bounce_rays += 1;
             let hit = self.accel.closest_hit(origin, wi, f32::INFINITY);
             let le = match &hit {
                 Some(hit) => self.emission_at(hit, -wi),
                 None => self.environment_radiance(wi),
             };
-            if le == Vec3::ZERO || pdf <= 0.0 {
+            if le == Vec3::ZERO {
+                continue;
+            }
+            // Only a direction that found emission needs f and its density.
+            let brdf = x.brdf.evaluate(x.ns, x.wo, wi);
+            let pdf = x.brdf.pdf_of(&brdf);
+            if pdf <= 0.0 {
                 continue;
             }
             let weight = match (mis, &hit) {
@@ -413,8 +420,7 @@ impl Estimator<'_> {
                 (true, Some(hit)) => self.bsdf_mis_weight(x, hit, wi, pdf),
                 (true, None) => self.environment_mis_weight(x, wi, pdf),
             };
-            let f = x.brdf.eval(x.ns, x.wo, wi);
-            sum += f * le * x.ns.dot(wi) * weight / (samples * pdf);
+            sum += brdf.f * le * x.ns.dot(wi) * weight / (samples * pdf);
         }
         sum
     }

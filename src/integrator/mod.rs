@@ -1,6 +1,7 @@
 //! Direct lighting: the K×N estimator and its baselines, and the parallel tile loop.
 
 mod estimator;
+mod prefetch;
 mod prepared;
 mod tiles;
 

@@ -286,23 +286,27 @@ impl Estimator<'_> {
         if x.ng.dot(wi) <= 0.0 {
             return None;
         }
-        let p_bsdf = x.brdf.pdf(x.ns, x.wo, wi);
         counts.bounce_rays += 1;
         let origin = offset_ray_origin(x.p, x.ng);
-        let (le, p_light) = match self.accel.closest_hit(origin, wi, f32::INFINITY) {
-            Some(hit) => (
-                self.emission_at(&hit, -wi),
-                self.light_density_at(x, &hit, wi),
-            ),
-            None => (
-                self.environment_radiance(wi),
-                self.environment_density(x, wi),
-            ),
+        let hit = self.accel.closest_hit(origin, wi, f32::INFINITY);
+        let le = match &hit {
+            Some(hit) => self.emission_at(hit, -wi),
+            None => self.environment_radiance(wi),
         };
-        if le == Vec3::ZERO || p_bsdf.is_nan() || p_bsdf <= 0.0 {
+        if le == Vec3::ZERO {
             return None;
         }
-        let f = x.brdf.eval(x.ns, x.wo, wi);
+        // Only a direction that found emission needs f and the two densities.
+        let brdf = x.brdf.evaluate(x.ns, x.wo, wi);
+        let p_bsdf = x.brdf.pdf_of(&brdf);
+        if p_bsdf.is_nan() || p_bsdf <= 0.0 {
+            return None;
+        }
+        let p_light = match &hit {
+            Some(hit) => self.light_density_at(x, hit, wi),
+            None => self.environment_density(x, wi),
+        };
+        let f = brdf.f;
         let candidate = Candidate {
             wi,
             f_le_cos: f * le * x.ns.dot(wi),

@@ -212,6 +212,8 @@ impl TileSums {
         count: usize,
         last_of_pixel: u32,
     ) {
+        // The light choices' cache misses overlap the camera rays' traversal.
+        estimator.prefetch_lights(&samples[..count]);
         let mut hits = [None; PACKET];
         estimator
             .accel
@@ -269,14 +271,21 @@ mod tests {
     use crate::scene::{load_gltf, CameraChoice};
     use crate::select::SelectorKind;
 
-    /// Rays traced in packets (a pixel's eight at a time, or several pixels' when spp < 8) give
-    /// every pixel exactly the sums of tracing and shading its samples one at a time.
+    /// Rays traced in packets (a pixel's eight at a time, or several pixels' when spp < 8),
+    /// with their light choices prefetched (power selector), give every pixel exactly the sums
+    /// of tracing and shading its samples one at a time.
     #[test]
     fn packets_give_the_pixels_of_one_ray_at_a_time() {
+        for kind in [SelectorKind::Bvh, SelectorKind::Power] {
+            packets_match_single_rays(kind);
+        }
+    }
+
+    fn packets_match_single_rays(kind: SelectorKind) {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.glb");
         let scene = load_gltf(&path, &CameraChoice::default()).unwrap();
         let camera = scene.camera.clone().unwrap();
-        let prepared = PreparedScene::new(scene, SelectorKind::Bvh);
+        let prepared = PreparedScene::new(scene, kind);
         let estimator = prepared.estimator(Strategy::Mis, 1, 1);
         for spp in [1, 3, 8, 11] {
             let opts = RenderOptions::new(19, 13, spp, 5);

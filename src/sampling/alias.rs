@@ -5,6 +5,8 @@
 //! power of each emissive triangle), and to return the exact probability of
 //! any index for multiple-importance-sampling weights.
 
+use super::prefetch::prefetch;
+
 /// One bin of the table.
 ///
 /// Layout: 8 + 8 + 4 bytes, padded to 24 bytes by the alignment of `f64`.
@@ -109,6 +111,24 @@ impl AliasTable {
             bin_index
         } else {
             bin.alias as usize
+        }
+    }
+
+    /// Starts loading the bin that `sample(u)` reads first: a hint that
+    /// changes no result.
+    #[inline]
+    pub fn prefetch_sample(&self, u: f64) {
+        let n = self.bins.len();
+        let bin_index = ((u.clamp(0.0, 1.0) * n as f64) as usize).min(n - 1);
+        prefetch(&self.bins[bin_index]);
+    }
+
+    /// Starts loading index `i`'s bin (its pmf, which `sample_with_pmf` and
+    /// `pmf` read) into the cache: a hint that changes no result.
+    #[inline]
+    pub fn prefetch(&self, i: usize) {
+        if let Some(bin) = self.bins.get(i) {
+            prefetch(bin);
         }
     }
 

@@ -2,6 +2,7 @@
 
 pub mod alias;
 pub mod distribution;
+pub mod prefetch;
 pub mod rng;
 pub mod sampler;
 pub mod warp;

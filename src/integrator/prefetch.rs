@@ -1,0 +1,44 @@
+//! Warming the cache for a packet's light choices. With thousands of lights, choosing one reads
+//! a random alias-table bin, then the chosen light's bin (its pmf) and the light itself: three
+//! dependent cache misses per camera sample, taken one sample after another when each sample is
+//! shaded in turn. Making a packet's choices ahead of its camera rays' traversal, and asking
+//! only for those lines to be loaded, lets the misses of all its samples overlap with each
+//! other and with the traversal. The choice is made again, identically, when each sample is
+//! shaded: this pass changes no result.
+
+use super::estimator::Estimator;
+use super::Strategy;
+use crate::sampling::prefetch::prefetch;
+use crate::sampling::sampler::CameraSample;
+use crate::select::LightSelector;
+
+impl Estimator<'_> {
+    /// Starts loading the bins and lights that the K light choices of each of `samples` read,
+    /// where the selector's choice does not depend on the shading point (the power selector's
+    /// alias table) and the strategy draws one light per slot from `light_choice`.
+    pub fn prefetch_lights(&self, samples: &[CameraSample]) {
+        let Some(LightSelector::Power(table)) = self.selector else {
+            return;
+        };
+        if !matches!(
+            self.strategy,
+            Strategy::LightArea | Strategy::LightSolidAngle | Strategy::Mis
+        ) {
+            return;
+        }
+        // First every sample's first bin, so that the second pass's reads of them (each
+        // followed by an unpredictable branch) find their lines on the way.
+        for cs in samples {
+            for slot in 0..self.k {
+                table.prefetch_sample(cs.light_choice(slot));
+            }
+        }
+        for cs in samples {
+            for slot in 0..self.k {
+                let l = table.sample(cs.light_choice(slot));
+                table.prefetch(l);
+                prefetch(&self.lights.lights[l]);
+            }
+        }
+    }
+}
