@@ -405,7 +405,7 @@ mod tests {
                 let expected = whole.closest_hit(origin, dir, f32::INFINITY);
                 let blocked = whole.occluded(origin, dir, length);
                 hits += usize::from(expected.is_some());
-                for avx2 in [false, crate::cpu::has_avx2_fma()] {
+                for avx2 in [false, crate::accel::has_simd_walk()] {
                     parts.avx2 = avx2;
                     let got = parts.closest_hit(origin, dir, f32::INFINITY);
                     // Two triangles at exactly the same distance (a shared vertex or edge) may
