@@ -38,8 +38,8 @@ impl Accel {
     /// Closest hits of `rays` (guarded, at most `PACKET`), written to `hits`.
     ///
     /// # Safety
-    /// The CPU must support AVX2 and FMA.
-    #[target_feature(enable = "avx2,fma")]
+    /// The CPU must support the features of `has_simd_walk`.
+    #[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,lzcnt")]
     pub(super) unsafe fn closest_hits_avx2(&self, rays: &mut [Ray], hits: &mut [Option<Hit>]) {
         debug_assert!(rays.len() <= PACKET && hits.len() == rays.len());
         let mut lanes = Lanes::new(rays);
