@@ -23,7 +23,7 @@
 //!   coding error, cosines rounded down. Lights are renumbered into leaf order,
 //!   so every subtree covers a contiguous range of light ids.
 //! - The traversed tree is 8-wide (`wide`): the binary tree collapsed by
-//!   opening the largest child until eight are gathered, each child's bounds
+//!   opening the child of largest r·Φ² until eight are gathered, each child's bounds
 //!   coded again in 16-bit fields relative to its node (bounding sphere on the
 //!   node's grid, cone axis, cosines; Φ in f32), 256 bytes a node, decoded to
 //!   f32 lanes as a node is evaluated. A lane keeps

@@ -4,8 +4,8 @@
 //! about three binary levels at once.
 //!
 //! [`collapse`] turns the binary build tree into wide nodes: starting from a
-//! binary node it repeatedly opens the interior lane with the largest bounding
-//! sphere (replacing it, in place, by its two children) until eight lanes are
+//! binary node it repeatedly opens the interior lane of largest r·Φ² (bounding
+//! radius times squared power; replacing it, in place, by its two children) until eight lanes are
 //! filled or only leaves remain. Lanes keep light-id order, so each lane
 //! covers a contiguous id range starting at `first`, and `pmf` can find the
 //! lane holding a light without parent links. The nodes of a node's interior
@@ -269,7 +269,7 @@ fn count_wide(binary: &[Node], start: Lane) -> usize {
 
 /// The lanes of the wide node rooted at binary node `start`: `start` itself
 /// if it is a leaf, else its children, with the interior lane of largest
-/// radius opened while fewer than eight lanes are used.
+/// [`opening_priority`] opened while fewer than eight lanes are used.
 fn open(binary: &[Node], start: Lane) -> OpenLanes {
     let mut lanes = [None; LANES];
     lanes[0] = Some(start);
@@ -281,9 +281,8 @@ fn open(binary: &[Node], start: Lane) -> OpenLanes {
             .filter_map(|(k, lane)| lane.map(|l| (k, l)))
             .filter(|(_, l)| !binary[l.index].is_leaf())
             .max_by(|a, b| {
-                binary[a.1.index]
-                    .radius
-                    .total_cmp(&binary[b.1.index].radius)
+                opening_priority(&binary[a.1.index])
+                    .total_cmp(&opening_priority(&binary[b.1.index]))
             });
         let Some((k, lane)) = widest else { break };
         let node = &binary[lane.index];
@@ -310,6 +309,16 @@ fn open(binary: &[Node], start: Lane) -> OpenLanes {
         *to = from;
     }
     open
+}
+
+/// Which interior lane a wide node opens first: the one of largest r·Φ², its bounding
+/// radius (how loosely its importance is known) times the square of its power (a
+/// choice's variance weighs squared contributions). Measured against opening by radius
+/// alone (`cargo bench --bench selection_quality`, W²-weighted / mean / median χ²
+/// against the oracle): town 15.7 / 2.81 / 1.18 → 13.6 / 2.03 / 1.11, 50k city 1.56 /
+/// 2.07 / 1.86 → 1.27 / 1.69 / 1.61; r·Φ gave 16.0 / 2.26 / 1.10 and 1.46 / 1.72 / 1.47.
+fn opening_priority(node: &Node) -> f64 {
+    f64::from(node.radius) * f64::from(node.phi).powi(2)
 }
 
 /// The lanes of one wide node, in light-id order: the first `used` of `lanes`.
