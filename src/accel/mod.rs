@@ -127,7 +127,7 @@ impl Accel {
             // SAFETY: `avx2` is true only when the CPU reported the features (`has_simd_walk`).
             return unsafe { self.closest_hit_avx2(&ray) };
         }
-        self.closest_hit_walk::<false>(&ray)
+        self.closest_hit_walk(&ray, CwBvhNode::intersect_ray)
     }
 
     /// The nearest intersections (t in [0, ∞)) of up to `PACKET` rays (origin, unit direction),
@@ -160,7 +160,7 @@ impl Accel {
             // SAFETY: `avx2` is true only when the CPU reported the features (`has_simd_walk`).
             return unsafe { self.occluded_avx2(&ray) };
         }
-        self.occluded_walk::<false>(&ray)
+        self.occluded_walk(&ray, CwBvhNode::intersect_ray)
     }
 
     /// Whether the segment from surface point `a` (unit normal `na` on the segment's side) to
@@ -180,7 +180,10 @@ impl Accel {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,lzcnt")]
     unsafe fn closest_hit_avx2(&self, ray: &Ray) -> Option<Hit> {
-        self.closest_hit_walk::<true>(ray)
+        let node_ray = node_avx2::NodeRay::new(ray);
+        self.closest_hit_walk(ray, |node, ray, oct_inv4| {
+            node_avx2::intersect_node(node, &node_ray, ray.tmax, oct_inv4)
+        })
     }
 
     /// # Safety
@@ -188,24 +191,21 @@ impl Accel {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,lzcnt")]
     unsafe fn occluded_avx2(&self, ray: &Ray) -> bool {
-        self.occluded_walk::<true>(ray)
+        let node_ray = node_avx2::NodeRay::new(ray);
+        self.occluded_walk(ray, |node, ray, oct_inv4| {
+            node_avx2::intersect_node(node, &node_ray, ray.tmax, oct_inv4)
+        })
     }
 
-    /// The children of `node` the ray hits, as obvhs's traversal mask. `AVX2` is true only
-    /// inside the `avx2` functions, which have checked the CPU.
+    /// Closest hit of a guarded ray, its distance measured from the unguarded origin, the
+    /// children of a node the ray hits (with its current tmax) given as obvhs's traversal mask
+    /// by `node_hits` (obvhs's own test, or `node_avx2`'s inside the AVX2 walks).
     #[inline(always)]
-    fn node_hits<const AVX2: bool>(node: &CwBvhNode, ray: &Ray, oct_inv4: u32) -> u32 {
-        #[cfg(target_arch = "x86_64")]
-        if AVX2 {
-            // SAFETY: only the `avx2` walks pass AVX2 = true, after the CPU check.
-            return unsafe { node_avx2::intersect_node(node, ray, oct_inv4) };
-        }
-        node.intersect_ray(ray, oct_inv4)
-    }
-
-    /// Closest hit of a guarded ray, its distance measured from the unguarded origin.
-    #[inline(always)]
-    fn closest_hit_walk<const AVX2: bool>(&self, ray: &Ray) -> Option<Hit> {
+    fn closest_hit_walk(
+        &self,
+        ray: &Ray,
+        node_hits: impl Fn(&CwBvhNode, &Ray, u32) -> u32,
+    ) -> Option<Hit> {
         let mut walk_ray = *ray;
         let mut best: Option<(u32, f32, f32)> = None;
         let mut state = self.bvh.new_traversal(ray.direction);
@@ -214,7 +214,7 @@ impl Accel {
             self.bvh,
             node,
             state,
-            Self::node_hits::<AVX2>(node, &walk_ray, state.oct_inv4),
+            node_hits(node, &walk_ray, state.oct_inv4),
             {
                 let slot = state.primitive_id;
                 if let Some((t, b1, b2)) = self.triangles[slot as usize].intersect(&walk_ray) {
@@ -238,9 +238,10 @@ impl Accel {
         }
     }
 
-    /// Whether a guarded ray hits anything; the walk ends at the first hit.
+    /// Whether a guarded ray hits anything; the walk ends at the first hit (`node_hits` as in
+    /// `closest_hit_walk`).
     #[inline(always)]
-    fn occluded_walk<const AVX2: bool>(&self, ray: &Ray) -> bool {
+    fn occluded_walk(&self, ray: &Ray, node_hits: impl Fn(&CwBvhNode, &Ray, u32) -> u32) -> bool {
         let mut hit = false;
         let mut state = self.bvh.new_traversal(ray.direction);
         let mut node;
@@ -251,7 +252,7 @@ impl Accel {
                 self.bvh,
                 node,
                 state,
-                Self::node_hits::<AVX2>(node, ray, state.oct_inv4),
+                node_hits(node, ray, state.oct_inv4),
                 {
                     if self.triangles[state.primitive_id as usize]
                         .intersect(ray)
@@ -516,13 +517,17 @@ mod tests {
                 let mut lanes = std::arch::x86_64::_mm256_setzero_ps();
                 for ray in &rays {
                     let expected = node.intersect_ray(ray, oct_inv4);
-                    assert_eq!(node_avx2::intersect_node(node, ray, oct_inv4), expected);
+                    let node_ray = node_avx2::NodeRay::new(ray);
+                    let got = node_avx2::intersect_node(node, &node_ray, ray.tmax, oct_inv4);
+                    assert_eq!(got, expected);
                     expected_or |= expected;
                     nonzero += (expected != 0) as usize;
                     compared += 1;
                     lanes = std::arch::x86_64::_mm256_or_ps(
                         lanes,
-                        node_avx2::hit_lanes(node, ray, |axis| boxes[axis]),
+                        node_avx2::hit_lanes(node, &node_ray, ray.tmax, |axis| {
+                            node_avx2::box_planes(&boxes, &node_ray, axis)
+                        }),
                     );
                 }
                 assert_eq!(

@@ -13,9 +13,59 @@
 #[cfg(target_arch = "x86_64")]
 use std::arch::x86_64::*;
 
+use std::mem::offset_of;
+
 use glam::Vec3A;
 use obvhs::cwbvh::node::CwBvhNode;
 use obvhs::ray::Ray;
+
+/// What the node test needs of a ray, fixed for its whole walk: its origin, inverse direction,
+/// and per axis which of a child's two planes is near (the lower one when the ray runs toward
+/// +axis), as the byte offsets in a node of the near and far planes' offsets. Chosen once per
+/// ray, so a node's test loads the near and far bytes directly instead of loading both and
+/// picking by the direction's sign.
+#[cfg(target_arch = "x86_64")]
+pub(super) struct NodeRay {
+    origin: Vec3A,
+    inv_direction: Vec3A,
+    negative: [bool; 3],
+    near: [usize; 3],
+    far: [usize; 3],
+}
+
+#[cfg(target_arch = "x86_64")]
+impl NodeRay {
+    pub(super) fn new(ray: &Ray) -> NodeRay {
+        let lower = [
+            offset_of!(CwBvhNode, child_min_x),
+            offset_of!(CwBvhNode, child_min_y),
+            offset_of!(CwBvhNode, child_min_z),
+        ];
+        let upper = [
+            offset_of!(CwBvhNode, child_max_x),
+            offset_of!(CwBvhNode, child_max_y),
+            offset_of!(CwBvhNode, child_max_z),
+        ];
+        let d = ray.direction;
+        let negative = [d.x < 0.0, d.y < 0.0, d.z < 0.0];
+        let pick = |toward_negative: bool| {
+            [0, 1, 2].map(|a| {
+                if negative[a] == toward_negative {
+                    lower[a]
+                } else {
+                    upper[a]
+                }
+            })
+        };
+        NodeRay {
+            origin: ray.origin,
+            inv_direction: ray.inv_direction,
+            negative,
+            near: pick(false),
+            far: pick(true),
+        }
+    }
+}
 
 /// A node's child boxes as f32 lanes on its grid, per axis (x, y, z): the lower and upper
 /// offsets, before the ray's direction picks which is near.
@@ -46,8 +96,9 @@ unsafe fn axis_bounds(node: &CwBvhNode, axis: usize) -> (__m256, __m256) {
     (widen(lo), widen(hi))
 }
 
-/// All-ones in the lanes of the children `ray` hits (obvhs's slab test, see the module header),
-/// the child boxes along each axis from `bounds(axis)`.
+/// All-ones in the lanes of the children `ray` hits (obvhs's slab test, see the module header)
+/// with the ray's current `tmax`, the near and far planes' offsets along each axis as f32
+/// lanes from `planes(axis)`.
 ///
 /// # Safety
 /// The CPU must support AVX2 and FMA.
@@ -56,23 +107,44 @@ unsafe fn axis_bounds(node: &CwBvhNode, axis: usize) -> (__m256, __m256) {
 #[inline]
 pub(super) unsafe fn hit_lanes(
     node: &CwBvhNode,
-    ray: &Ray,
-    bounds: impl Fn(usize) -> (__m256, __m256),
+    ray: &NodeRay,
+    tmax: f32,
+    planes: impl Fn(usize) -> (__m256, __m256),
 ) -> __m256 {
     /// obvhs's fixed lower clamp of a child's entry distance.
     const ENTRY_EPSILON: f32 = 1e-4;
     let scale = node.compute_extent() * ray.inv_direction;
     let shift = (Vec3A::from(node.p) - ray.origin) * ray.inv_direction;
-    let d = ray.direction;
     // Axis by axis, each widened where it is used (faster than all six up front).
-    let (near_x, far_x) = slab(bounds(0), d.x < 0.0, scale.x, shift.x);
-    let (near_y, far_y) = slab(bounds(1), d.y < 0.0, scale.y, shift.y);
-    let (near_z, far_z) = slab(bounds(2), d.z < 0.0, scale.z, shift.z);
+    let (near_x, far_x) = slab(planes(0), scale.x, shift.x);
+    let (near_y, far_y) = slab(planes(1), scale.y, shift.y);
+    let (near_z, far_z) = slab(planes(2), scale.z, shift.z);
     let entry = _mm256_max_ps(near_x, _mm256_max_ps(near_y, near_z));
     let exit = _mm256_min_ps(far_x, _mm256_min_ps(far_y, far_z));
     let entry = _mm256_max_ps(entry, _mm256_set1_ps(ENTRY_EPSILON));
-    let exit = _mm256_min_ps(exit, _mm256_set1_ps(ray.tmax));
+    let exit = _mm256_min_ps(exit, _mm256_set1_ps(tmax));
     _mm256_cmp_ps::<_CMP_LE_OS>(entry, exit)
+}
+
+/// The near and far planes of `axis` for `ray` from a node's `boxes` (widened once for the
+/// rays of a packet).
+///
+/// # Safety
+/// The CPU must support AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline]
+pub(super) unsafe fn box_planes(
+    boxes: &ChildBoxes,
+    ray: &NodeRay,
+    axis: usize,
+) -> (__m256, __m256) {
+    let (lo, hi) = boxes[axis];
+    if ray.negative[axis] {
+        (hi, lo)
+    } else {
+        (lo, hi)
+    }
 }
 
 /// The hit mask of obvhs's traversal (`traverse!`) for the children in `hit` lanes: each
@@ -107,8 +179,21 @@ pub(super) unsafe fn traversal_mask(node: &CwBvhNode, oct_inv4: u32, hit: __m256
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 #[inline]
-pub(super) unsafe fn intersect_node(node: &CwBvhNode, ray: &Ray, oct_inv4: u32) -> u32 {
-    let hit = hit_lanes(node, ray, |axis| axis_bounds(node, axis));
+pub(super) unsafe fn intersect_node(
+    node: &CwBvhNode,
+    ray: &NodeRay,
+    tmax: f32,
+    oct_inv4: u32,
+) -> u32 {
+    let bytes = (node as *const CwBvhNode).cast::<u8>();
+    // SAFETY: `near` and `far` hold offsets of [u8; 8] fields of `CwBvhNode`.
+    let planes = |axis| unsafe {
+        (
+            widen(&*bytes.add(ray.near[axis]).cast()),
+            widen(&*bytes.add(ray.far[axis]).cast()),
+        )
+    };
+    let hit = hit_lanes(node, ray, tmax, planes);
     traversal_mask(node, oct_inv4, hit)
 }
 
@@ -128,13 +213,11 @@ unsafe fn widen(q: &[u8; 8]) -> __m256 {
     _mm256_cvtepi32_ps(bytes_to_lanes(_mm_loadl_epi64(q.as_ptr().cast())))
 }
 
-/// Distances t = q·s + o to the near and far planes of one axis for the eight children, the
-/// lower and upper bounds swapped where the ray runs toward −axis.
+/// Distances t = q·s + o to the near and far planes of one axis for the eight children.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 #[inline]
-unsafe fn slab((lo, hi): (__m256, __m256), negative: bool, s: f32, o: f32) -> (__m256, __m256) {
-    let (near, far) = if negative { (hi, lo) } else { (lo, hi) };
+unsafe fn slab((near, far): (__m256, __m256), s: f32, o: f32) -> (__m256, __m256) {
     let (s, o) = (_mm256_set1_ps(s), _mm256_set1_ps(o));
     (
         _mm256_add_ps(_mm256_mul_ps(near, s), o),

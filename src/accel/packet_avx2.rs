@@ -43,6 +43,8 @@ impl Accel {
     pub(super) unsafe fn closest_hits_avx2(&self, rays: &mut [Ray], hits: &mut [Option<Hit>]) {
         debug_assert!(rays.len() <= PACKET && hits.len() == rays.len());
         let mut lanes = Lanes::new(rays);
+        let node_rays: [_; PACKET] =
+            std::array::from_fn(|i| node_avx2::NodeRay::new(&rays[i.min(rays.len() - 1)]));
         let mut state = self.bvh.new_traversal(rays[0].direction);
         let mut node;
         obvhs::traverse!(
@@ -53,8 +55,10 @@ impl Accel {
                 // The children any ray hits; the boxes are widened once for all the rays.
                 let boxes = node_avx2::child_boxes(node);
                 let mut hit = _mm256_setzero_ps();
-                for ray in rays.iter() {
-                    hit = _mm256_or_ps(hit, node_avx2::hit_lanes(node, ray, |axis| boxes[axis]));
+                for (ray, node_ray) in rays.iter().zip(&node_rays) {
+                    let planes = |axis| node_avx2::box_planes(&boxes, node_ray, axis);
+                    let lanes = node_avx2::hit_lanes(node, node_ray, ray.tmax, planes);
+                    hit = _mm256_or_ps(hit, lanes);
                 }
                 node_avx2::traversal_mask(node, state.oct_inv4, hit)
             },
