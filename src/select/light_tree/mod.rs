@@ -23,7 +23,8 @@
 //!   coding error, cosines rounded down. Lights are renumbered into leaf order,
 //!   so every subtree covers a contiguous range of light ids.
 //! - The traversed tree is 8-wide (`wide`): the binary tree collapsed by
-//!   opening the child of largest r·Φ² until eight are gathered, each child's bounds
+//!   opening the child of largest r·Φ² until eight are gathered (near the
+//!   leaves, subtrees of ≤ 16 lights by the cut with the fewest nodes), each child's bounds
 //!   coded again in 16-bit fields relative to its node (bounding sphere on the
 //!   node's grid, cone axis, cosines; Φ in f32), 256 bytes a node, decoded to
 //!   f32 lanes as a node is evaluated. A lane keeps
@@ -35,7 +36,8 @@
 //! Files: `bounds` (LightBounds, cone algebra), `quantise` (grid, cosine and
 //! octahedral codes), `node` (the 32-byte build node), `split` (binned split
 //! choice), `build` (parallel subtree construction), `wide` (8-wide nodes and
-//! the collapse), `lanes` (the SIMD importance), `traverse` (LightBvh: build
+//! the collapse), `small_cut` (the collapse of small subtrees), `lanes` (the
+//! SIMD importance), `traverse` (LightBvh: build
 //! entry, sample, pmf), `tests`.
 
 mod bounds;
@@ -43,6 +45,7 @@ mod build;
 mod lanes;
 mod node;
 mod quantise;
+mod small_cut;
 mod split;
 #[cfg(test)]
 mod tests;
@@ -53,6 +56,7 @@ use build::*;
 use lanes::*;
 use node::*;
 use quantise::*;
+use small_cut::*;
 use split::*;
 use wide::*;
 

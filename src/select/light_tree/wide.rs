@@ -5,11 +5,13 @@
 //!
 //! [`collapse`] turns the binary build tree into wide nodes: starting from a
 //! binary node it repeatedly opens the interior lane of largest r·Φ² (bounding
-//! radius times squared power; replacing it, in place, by its two children) until eight lanes are
-//! filled or only leaves remain. Lanes keep light-id order, so each lane
-//! covers a contiguous id range starting at `first`, and `pmf` can find the
-//! lane holding a light without parent links. The nodes of a node's interior
-//! lanes are consecutive, so one index per node finds them all.
+//! radius times squared power), replacing it in place by its two children,
+//! until eight lanes are filled or only leaves remain; subtrees of at most 16
+//! lights are cut with the fewest wide nodes instead ([`super::small_cut`]).
+//! Lanes keep light-id order, so each lane covers a contiguous id range
+//! starting at `first`, and `pmf` can find the lane holding a light without
+//! parent links. The nodes of a node's interior lanes are consecutive, so one
+//! index per node finds them all.
 
 use glam::Vec3;
 use rayon::prelude::*;
@@ -148,10 +150,10 @@ impl WideNode {
 /// A binary node as a candidate lane: its index, the first id of its range and how many
 /// lights the range holds.
 #[derive(Clone, Copy, Debug)]
-struct Lane {
-    index: usize,
-    first: usize,
-    count: usize,
+pub(super) struct Lane {
+    pub(super) index: usize,
+    pub(super) first: usize,
+    pub(super) count: usize,
 }
 
 /// Below lanes of fewer lights the subtrees are collapsed by one rayon task each.
@@ -267,42 +269,46 @@ fn count_wide(binary: &[Node], start: Lane) -> usize {
     count
 }
 
-/// The lanes of the wide node rooted at binary node `start`: `start` itself
-/// if it is a leaf, else its children, with the interior lane of largest
+/// The lanes of the wide node rooted at binary node `start`: `start` itself if it is a leaf;
+/// for subtrees of at most [`SMALL_SUBTREE`] lights the cut with the fewest wide nodes
+/// ([`small_cut`]); else its children, with the interior lane of largest
 /// [`opening_priority`] opened while fewer than eight lanes are used.
 fn open(binary: &[Node], start: Lane) -> OpenLanes {
+    if start.count <= SMALL_SUBTREE && !binary[start.index].is_leaf() {
+        return small_cut(binary, start);
+    }
     let mut lanes = [None; LANES];
     lanes[0] = Some(start);
-    let mut used = 1;
+    open_more(binary, lanes, 1, |_| true)
+}
+
+/// `lanes` (the first `used` set) with, while fewer than eight are used, the interior lane of
+/// largest [`opening_priority`] among those `may_open` allows replaced by its two children.
+pub(super) fn open_more(
+    binary: &[Node],
+    mut lanes: [Option<Lane>; LANES],
+    mut used: usize,
+    may_open: impl Fn(&Lane) -> bool,
+) -> OpenLanes {
     while used < LANES {
         let widest = lanes[..used]
             .iter()
             .enumerate()
             .filter_map(|(k, lane)| lane.map(|l| (k, l)))
-            .filter(|(_, l)| !binary[l.index].is_leaf())
+            .filter(|(_, l)| !binary[l.index].is_leaf() && may_open(l))
             .max_by(|a, b| {
                 opening_priority(&binary[a.1.index])
                     .total_cmp(&opening_priority(&binary[b.1.index]))
             });
         let Some((k, lane)) = widest else { break };
-        let node = &binary[lane.index];
-        let left = Lane {
-            index: lane.index + 1,
-            first: lane.first,
-            count: (node.link as usize - lane.index) / 2,
-        };
-        let right = Lane {
-            index: node.link as usize,
-            first: node.right_first(lane.index, lane.first),
-            count: lane.count - left.count,
-        };
+        let (left, right) = halves(binary, lane);
         lanes.copy_within(k + 1..used, k + 2);
         lanes[k] = Some(left);
         lanes[k + 1] = Some(right);
         used += 1;
     }
     let mut open = OpenLanes {
-        lanes: [start; LANES],
+        lanes: [lanes[0].expect("a wide node has a lane"); LANES],
         used,
     };
     for (to, from) in open.lanes.iter_mut().zip(lanes.into_iter().flatten()) {
@@ -311,18 +317,34 @@ fn open(binary: &[Node], start: Lane) -> OpenLanes {
     open
 }
 
+/// The two children of interior lane `lane` as lanes.
+pub(super) fn halves(binary: &[Node], lane: Lane) -> (Lane, Lane) {
+    let node = &binary[lane.index];
+    let left = Lane {
+        index: lane.index + 1,
+        first: lane.first,
+        count: (node.link as usize - lane.index) / 2,
+    };
+    let right = Lane {
+        index: node.link as usize,
+        first: node.right_first(lane.index, lane.first),
+        count: lane.count - left.count,
+    };
+    (left, right)
+}
+
 /// Which interior lane a wide node opens first: the one of largest r·Φ², its bounding
 /// radius (how loosely its importance is known) times the square of its power (a
 /// choice's variance weighs squared contributions). Measured against opening by radius
 /// alone (`cargo bench --bench selection_quality`, W²-weighted / mean / median χ²
 /// against the oracle): town 15.7 / 2.81 / 1.18 → 13.6 / 2.03 / 1.11, 50k city 1.56 /
 /// 2.07 / 1.86 → 1.27 / 1.69 / 1.61; r·Φ gave 16.0 / 2.26 / 1.10 and 1.46 / 1.72 / 1.47.
-fn opening_priority(node: &Node) -> f64 {
+pub(super) fn opening_priority(node: &Node) -> f64 {
     f64::from(node.radius) * f64::from(node.phi).powi(2)
 }
 
 /// The lanes of one wide node, in light-id order: the first `used` of `lanes`.
-struct OpenLanes {
+pub(super) struct OpenLanes {
     lanes: [Lane; LANES],
     used: usize,
 }
