@@ -73,11 +73,14 @@ pub(super) fn decode_cos(q: u32) -> f32 {
 /// A 15-bit code whose cosine is ≤ `c` (a wider or equal angle): `c` rounded
 /// down to the grid, then checked with the decoding arithmetic.
 pub(super) fn encode_cos(c: f64) -> u32 {
-    let mut q = ((c + 1.0) * 0.5 * f64::from(COS_MAX)).clamp(0.0, f64::from(COS_MAX)) as u32;
-    while q > 0 && f64::from(decode_cos(q)) > c {
-        q -= 1;
+    let q = ((c + 1.0) * 0.5 * f64::from(COS_MAX)).clamp(0.0, f64::from(COS_MAX)) as u32;
+    let fits = |q: u32| q == 0 || f64::from(decode_cos(q)) <= c;
+    // The first guess nearly always fits. Checked on its own before the search, which the
+    // compiler would otherwise turn into a 16-code SIMD scan with a slow reduction.
+    if fits(q) {
+        return q;
     }
-    q
+    (0..q).rev().find(|&q| fits(q)).unwrap_or(0)
 }
 
 /// Octahedral code of a unit vector: 16 bits for each of the two coordinates
