@@ -107,6 +107,11 @@ pub(super) fn cone_union(a: (Vec3, f32), b: (Vec3, f32)) -> (Vec3, f32) {
     if is_whole_sphere(a) || is_whole_sphere(b) {
         return (a.0, -1.0);
     }
+    // Equal cones (common: a facade's lights share a normal) need no arccosines: θd = 0, so
+    // the test below returns `a`.
+    if a == b {
+        return a;
+    }
     let (wa, wb) = (a.0.as_dvec3().normalize(), b.0.as_dvec3().normalize());
     let theta_a = f64::from(a.1).clamp(-1.0, 1.0).acos();
     let theta_b = f64::from(b.1).clamp(-1.0, 1.0).acos();

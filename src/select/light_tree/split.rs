@@ -390,12 +390,14 @@ impl Binner {
         [b.x, b.y, b.z].map(|b| (b as usize).min(BUCKETS - 1))
     }
 
-    /// Whether a light's bucket along `axis` is below `cut`; the same
-    /// arithmetic as [`buckets`](Self::buckets), for one axis.
+    /// Whether a light's bucket along `axis` is below `cut` (1 ..= `BUCKETS` − 1), from the
+    /// offset x that [`buckets`](Self::buckets) truncates, by the same arithmetic. x ≥ 0 (the
+    /// box starts at the smallest centroid), so ⌊x⌋ < cut exactly when x < cut, and no
+    /// conversion is needed; a NaN x (an overflowing centroid) truncates to bucket 0.
     pub(super) fn below(&self, p: &Prim, axis: usize, cut: usize) -> bool {
         let centroid = (p.lo[axis] + p.hi[axis]) * 0.5;
-        let b = ((centroid - self.lo[axis]) * self.scale[axis]) as u32;
-        (b as usize).min(BUCKETS - 1) < cut
+        let x = (centroid - self.lo[axis]) * self.scale[axis];
+        x < cut as f32 || x.is_nan()
     }
 
     /// Bins the lights along every active axis, in one pass (halves of
