@@ -101,10 +101,7 @@ impl AliasTable {
     /// `53 − log₂ n` bits of `u`. A `u` outside `[0, 1)` is clamped, and never
     /// yields a zero-weight index.
     pub fn sample(&self, u: f64) -> usize {
-        let n = self.bins.len();
-        let scaled = u.clamp(0.0, 1.0) * n as f64;
-        // `as` saturates (NaN → 0); the min handles u·n rounding up to n.
-        let bin_index = (scaled as usize).min(n - 1);
+        let (bin_index, scaled) = self.first_bin(u);
         let frac = scaled - bin_index as f64;
         let bin = &self.bins[bin_index];
         if frac < bin.threshold {
@@ -118,9 +115,16 @@ impl AliasTable {
     /// changes no result.
     #[inline]
     pub fn prefetch_sample(&self, u: f64) {
+        prefetch(&self.bins[self.first_bin(u).0]);
+    }
+
+    /// The bin `sample(u)` reads first, and u·n it was found from.
+    #[inline(always)]
+    fn first_bin(&self, u: f64) -> (usize, f64) {
         let n = self.bins.len();
-        let bin_index = ((u.clamp(0.0, 1.0) * n as f64) as usize).min(n - 1);
-        prefetch(&self.bins[bin_index]);
+        let scaled = u.clamp(0.0, 1.0) * n as f64;
+        // `as` saturates (NaN → 0); the min handles u·n rounding up to n.
+        ((scaled as usize).min(n - 1), scaled)
     }
 
     /// Starts loading index `i`'s bin (its pmf, which `sample_with_pmf` and

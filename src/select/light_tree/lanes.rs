@@ -92,8 +92,8 @@ pub(super) fn importances(node: &WideNode, p: Vec3, n: Vec3) -> [f32; LANES] {
     out
 }
 
-/// A wide node's lane bounds in f32, one array per field: each lane's bounding sphere
-/// (centre, radius), cone axis (length within 1.5e-5 of 1, 2.7e-6 on average), cos θo, cos θe and signed Φ.
+/// A wide node's lane bounds in f32, one array per field: each lane's bounding sphere (centre,
+/// radius), cone axis (length within 1.5e-5 of 1, 2.7e-6 on average), cos θo, cos θe and signed Φ.
 pub(super) struct Decoded {
     pub(super) centre: [[f32; LANES]; 3],
     pub(super) radius: [f32; LANES],

@@ -1,7 +1,10 @@
-//! Compact coding of node bounds: box corners as 16-bit codes on a grid spanning
-//! the root box (rounded outwards), cosines as 15-bit codes (rounded down), the
-//! cone axis as a 2×16-bit octahedral code with θo widened by its coding error.
-//! Every rounding enlarges the bound, so a node never loses a reachable light.
+//! Compact coding of node bounds. Build-tree nodes: box corners as 16-bit codes on
+//! a grid spanning the root box (rounded outwards), cosines as 15-bit codes
+//! (rounded down), the cone axis as a 2×16-bit octahedral code with θo widened by
+//! its coding error. Wide-node lanes: the cone axis as three 16-bit components
+//! (`encode_axis`), the sphere's radius as a 16-bit multiple of a node step
+//! (`radius_step`, `encode_radius`, rounded up). Every rounding enlarges the
+//! bound, so a node never loses a reachable light.
 
 use glam::{DVec3, Vec3, Vec3A};
 use std::cell::Cell;
@@ -123,11 +126,11 @@ thread_local! {
     static LAST_AXIS: Last<([i16; 3], u32)> = const { Cell::new(None) };
 }
 
-/// `code()`, the codes of the cone (w, cos θo), unless `last` holds them already (the same
-/// bits coded last on this thread). Neighbouring nodes mostly share their cone (a facade's lights one normal, a parent
-/// its children's cone when one holds the other): in the 1M-light city 95% of
-/// [`encode_cone`]'s calls repeat the thread's previous one. The codes are a function of the
-/// bits alone, so they do not depend on what was coded before.
+/// `code()`, the codes of the cone (w, cos θo), unless `last` holds them already (the same bits
+/// coded last on this thread). Neighbouring nodes mostly share their cone (a facade's lights one
+/// normal, a parent its children's cone when one holds the other): in the 1M-light city 95% of
+/// [`encode_cone`]'s calls repeat the thread's previous one. The codes are a function of the bits
+/// alone, so they do not depend on what was coded before.
 fn remembered<V: Copy + 'static>(
     last: &'static LocalKey<Last<V>>,
     (w, cos_o): (Vec3, f32),

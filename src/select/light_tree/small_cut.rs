@@ -1,11 +1,11 @@
-//! The lanes of a wide node over a small subtree (at most [`SMALL_SUBTREE`] lights): the cut
-//! with the fewest wide nodes below it in all, after Ylitie, Karras & Laine 2017, who collapse
-//! a binary BVH into wide nodes by a cost over cuts the same way (here the cost is the node
-//! count alone). Opening by priority alone leaves small subtrees of two or three lights as
-//! lanes, each then a wide node of two or three lanes out of eight; near the leaves, where
-//! that happens, the count decides. Measured (`cargo bench --bench selection_quality`, 1M city
-//! bytes): up to 16 lights, 76.7 → 63.8 B per light, mean χ² town 2.03 → 2.03, city 1.69 →
-//! 1.72 (one point's χ² 6.9 → 30 moves the city's W²-weighted χ² 1.27 → 1.91; one sample's
+//! The lanes of a wide node over a small subtree (at most [`SMALL_SUBTREE`] lights): the cut with
+//! the fewest wide nodes below it in all, after Ylitie, Karras & Laine 2017, who collapse a binary
+//! BVH into wide nodes by a cost over cuts the same way (here the cost is the node count alone).
+//! Opening by priority alone leaves small subtrees of two or three lights as lanes, each then a
+//! wide node of two or three lanes out of eight; near the leaves, where that happens, the count
+//! decides. Measured (bytes: the 1M city render's selection line; χ²: `cargo bench --bench
+//! selection_quality`): up to 16 lights, 76.7 → 63.8 B per light, mean χ² town 2.03 → 2.03, city
+//! 1.69 → 1.72 (one point's χ² 6.9 → 30 moves the city's W²-weighted χ² 1.27 → 1.91; one sample's
 //! lit MSE moves < 1%); up to 32 lights 52.7 B, town's mean χ² 2.19.
 
 use super::*;
@@ -16,7 +16,8 @@ pub(super) const SMALL_SUBTREE: usize = 16;
 /// How a binary node of a small subtree is best collapsed: `nodes` wide nodes below it in all
 /// when it is opened into at most eight lanes (0 for a leaf), `lanes` the fewest lanes that
 /// reach that count (1 for a leaf). Kept as one lane instead, an interior node costs one wide
-/// node more (its own); opened into fewer than `lanes` lanes it costs as much as kept whole.
+/// node more (its own); opened into fewer than `lanes` lanes it costs at least as much as
+/// kept whole.
 /// So the two numbers describe every choice: kept (1 lane) or opened (`lanes` lanes).
 #[derive(Clone, Copy, Debug, Default)]
 struct Fewest {

@@ -25,12 +25,13 @@ pub(super) const LIGHT_LANE: u32 = 1 << 31;
 /// `first` of an unused lane: larger than every light id.
 pub(super) const EMPTY_LANE: u32 = u32::MAX;
 
-/// Up to eight children's bounds, one array per field (structure of arrays), coded compactly:
-/// 256 bytes, four cache lines, aligned to a cache line. Each child's bounding sphere has its
-/// centre on a grid over the node's centres (16 bits an axis) and its radius as a 16-bit
-/// multiple of `radius_step`, both rounded so the sphere still holds the child's box; the cone
-/// axis as three 16-bit fractions of 1 rounded away from zero, θo widened by the coding
-/// error; cosines as [`encode_cos`] codes rounded down (every rounding enlarges the bound).
+/// Up to eight children's bounds, one array per field (structure of arrays), coded compactly: 256
+/// bytes, four cache lines, aligned to a cache line. Each child's bounding sphere has its centre on
+/// a grid over the node's centres (16 bits an axis) and its radius as a 16-bit multiple of
+/// `radius_step`, both rounded so the sphere still holds the child's box; the cone axis as three
+/// 16-bit fractions of 1 (of the eight codes around it, the one of length nearest 1:
+/// [`encode_axis`]), θo widened by the coding error; cosines as [`encode_cos`] codes rounded down
+/// (every rounding enlarges the bound).
 #[repr(C, align(64))]
 #[derive(Clone, Copy, Debug)]
 pub(super) struct WideNode {
@@ -333,12 +334,12 @@ pub(super) fn halves(binary: &[Node], lane: Lane) -> (Lane, Lane) {
     (left, right)
 }
 
-/// Which interior lane a wide node opens first: the one of largest r·Φ², its bounding
-/// radius (how loosely its importance is known) times the square of its power (a
-/// choice's variance weighs squared contributions). Measured against opening by radius
-/// alone (`cargo bench --bench selection_quality`, W²-weighted / mean / median χ²
-/// against the oracle): town 15.7 / 2.81 / 1.18 → 13.6 / 2.03 / 1.11, 50k city 1.56 /
-/// 2.07 / 1.86 → 1.27 / 1.69 / 1.61; r·Φ gave 16.0 / 2.26 / 1.10 and 1.46 / 1.72 / 1.47.
+/// Which interior lane a wide node opens first: the one of largest r·Φ², its bounding radius (how
+/// loosely its importance is known) times the square of its power (a choice's variance weighs
+/// squared contributions). Measured against opening by radius alone (`cargo bench --bench
+/// selection_quality`, W²-weighted / mean / median χ² against the oracle, at bbac328, before the
+/// small-subtree cut): town 15.7 / 2.81 / 1.18 → 13.6 / 2.03 / 1.11, 50k city 1.56 / 2.07 / 1.86 →
+/// 1.27 / 1.69 / 1.61; r·Φ gave 16.0 / 2.26 / 1.10 and 1.46 / 1.72 / 1.47.
 pub(super) fn opening_priority(node: &Node) -> f64 {
     f64::from(node.radius) * f64::from(node.phi).powi(2)
 }

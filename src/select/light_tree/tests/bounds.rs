@@ -245,3 +245,68 @@ fn avx2_and_portable_copies_agree_bit_for_bit() {
         );
     }
 }
+
+#[test]
+fn wide_lanes_hold_their_lights() {
+    let mut rng = Rand::new(12);
+    let mut checked = 0;
+    for (scale, offset) in [(1e-4, 0.0), (1.0, 0.0), (1e6, 0.0), (1.0, 1e6), (1e-4, 1e3)] {
+        let scene = random_scene(&mut rng, 3000);
+        let lights: Vec<LightBounds> = scene
+            .bounds
+            .iter()
+            .map(|b| LightBounds {
+                lo: b.lo * scale + Vec3::splat(offset),
+                hi: b.hi * scale + Vec3::splat(offset),
+                ..*b
+            })
+            .collect();
+        let (bvh, order) = LightBvh::build(&lights);
+        for (id, &original) in order.iter().enumerate() {
+            let light = &lights[original as usize];
+            let mut index = 0;
+            loop {
+                let node = &bvh.nodes[index];
+                let k = node.lane_of(id as u32).expect("a lane holds every light");
+                let lanes = Decoded::of(node);
+                // The lane's sphere holds the light's box (f64 distances to its corners).
+                let centre = DVec3::from_array(lanes.centre.map(|c| f64::from(c[k])));
+                for corner in 0..8 {
+                    let pick =
+                        |a: usize, lo: f32, hi: f32| if corner >> a & 1 == 0 { lo } else { hi };
+                    let c = DVec3::new(
+                        f64::from(pick(0, light.lo.x, light.hi.x)),
+                        f64::from(pick(1, light.lo.y, light.hi.y)),
+                        f64::from(pick(2, light.lo.z, light.hi.z)),
+                    );
+                    assert!(
+                        c.distance(centre) <= f64::from(lanes.radius[k]),
+                        "light {id} box"
+                    );
+                }
+                // Its cone holds the light's, read as the lanes read it (w' as it is: the
+                // angle from cos = w'·d, at most acos(min(|w'|, 1/|w'|)) off ∠(w', d)).
+                let axis = DVec3::from_array(lanes.axis.map(|a| f64::from(a[k])));
+                if lanes.cos_o[k] > -1.0 {
+                    let length = axis.length();
+                    let stretch = length.min(1.0 / length).acos();
+                    let need = angle_between(axis, light.w.as_dvec3())
+                        + f64::from(light.cos_theta_o).acos()
+                        + stretch;
+                    assert!(need <= f64::from(lanes.cos_o[k]).acos(), "light {id} cone");
+                }
+                assert!(lanes.cos_e[k] <= light.cos_theta_e);
+                assert!(lanes.signed_phi[k].abs() >= light.phi * (1.0 - 1e-6));
+                assert!(!light.two_sided || lanes.signed_phi[k] < 0.0);
+                checked += 1;
+                let child = node.child(k);
+                if child & LIGHT_LANE != 0 {
+                    assert_eq!(child & !LIGHT_LANE, id as u32);
+                    break;
+                }
+                index = child as usize;
+            }
+        }
+    }
+    println!("{checked} lanes checked");
+}
