@@ -43,34 +43,7 @@ impl LightBvh {
         count: usize,
         bounds_of: impl Fn(usize) -> LightBounds + Sync,
     ) -> (LightBvh, Vec<u32>) {
-        let mut prims: Vec<Prim> = (0..count)
-            .into_par_iter()
-            .map(|i| Prim::new(i, &bounds_of(i)).unwrap_or(Prim::LEFT_OUT))
-            .collect();
-        prims.retain(|p| p.phi > 0.0);
-        let (boxes, centroids) = prims
-            .par_iter()
-            .map(|p| (p.aabb(), Aabb::point(p.centroid())))
-            .reduce(
-                || (Aabb::EMPTY, Aabb::EMPTY),
-                |a, b| (a.0.merge(&b.0), a.1.merge(&b.1)),
-            );
-        let grid = Grid::new(boxes.lo.into(), boxes.hi.into());
-        let mut nodes: Vec<Node> = (1..2 * prims.len())
-            .into_par_iter()
-            .map(|_| Node::default())
-            .collect();
-        if !prims.is_empty() {
-            let tree = Subtree {
-                prims: &mut prims,
-                nodes: &mut nodes,
-                base: 0,
-                first: 0,
-            };
-            tree.build(&grid, centroids);
-        }
-        let order: Vec<u32> = prims.iter().map(|p| p.id).collect();
-        drop(prims);
+        let (nodes, grid, order) = binary_tree(count, bounds_of);
         let tree = LightBvh {
             nodes: collapse(&nodes, &grid),
             lights: order.len(),
@@ -315,4 +288,40 @@ fn choose_lane(importances: &[f64; LANES], target: f64) -> (usize, f64) {
         below += importance;
     }
     last
+}
+
+/// The binary build tree over `count` lights (depth-first, root at 0), its grid, and the
+/// included lights' indices in leaf order (see [`LightBvh::build`]).
+pub(super) fn binary_tree(
+    count: usize,
+    bounds_of: impl Fn(usize) -> LightBounds + Sync,
+) -> (Vec<Node>, Grid, Vec<u32>) {
+    let mut prims: Vec<Prim> = (0..count)
+        .into_par_iter()
+        .map(|i| Prim::new(i, &bounds_of(i)).unwrap_or(Prim::LEFT_OUT))
+        .collect();
+    prims.retain(|p| p.phi > 0.0);
+    let (boxes, centroids) = prims
+        .par_iter()
+        .map(|p| (p.aabb(), Aabb::point(p.centroid())))
+        .reduce(
+            || (Aabb::EMPTY, Aabb::EMPTY),
+            |a, b| (a.0.merge(&b.0), a.1.merge(&b.1)),
+        );
+    let grid = Grid::new(boxes.lo.into(), boxes.hi.into());
+    let mut nodes: Vec<Node> = (1..2 * prims.len())
+        .into_par_iter()
+        .map(|_| Node::default())
+        .collect();
+    if !prims.is_empty() {
+        let tree = Subtree {
+            prims: &mut prims,
+            nodes: &mut nodes,
+            base: 0,
+            first: 0,
+        };
+        tree.build(&grid, centroids);
+    }
+    let order = prims.iter().map(|p| p.id).collect();
+    (nodes, grid, order)
 }

@@ -258,7 +258,7 @@ fn collapse_block(
 
 /// How many wide nodes the subtree of lane `start` makes: one for its root and one per
 /// interior lane below.
-fn count_wide(binary: &[Node], start: Lane) -> usize {
+pub(super) fn count_wide(binary: &[Node], start: Lane) -> usize {
     let mut count = 1;
     let mut pending = vec![start];
     while let Some(start) = pending.pop() {

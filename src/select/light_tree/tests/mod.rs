@@ -296,4 +296,5 @@ pub(super) fn check_frequencies(bvh: &LightBvh, p: Vec3, n: Vec3, m: usize, rng:
 }
 
 mod bounds;
+mod collapse;
 mod sampling;

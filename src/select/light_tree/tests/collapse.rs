@@ -1,0 +1,82 @@
+//! The collapse: a small subtree's wide nodes are as few as any cut into lanes allows, found
+//! here by trying every cut.
+
+use super::*;
+use crate::select::light_tree::traverse::binary_tree;
+
+#[test]
+fn small_subtrees_take_the_fewest_wide_nodes() {
+    let mut rng = Rand::new(13);
+    let mut checked = 0;
+    for count in [20, 300, 3000] {
+        let scene = random_scene(&mut rng, count);
+        let (binary, _, _) = binary_tree(scene.bounds.len(), |i| scene.bounds[i]);
+        let lights = lights_below(&binary);
+        for (index, &lights) in lights.iter().enumerate() {
+            if binary[index].is_leaf() || lights > SMALL_SUBTREE {
+                continue;
+            }
+            let lane = Lane {
+                index,
+                first: 0,
+                count: lights,
+            };
+            assert_eq!(
+                count_wide(&binary, lane),
+                fewest_by_enumeration(&binary, index)
+            );
+            checked += 1;
+        }
+    }
+    println!("{checked} subtrees of at most {SMALL_SUBTREE} lights checked");
+    assert!(checked > 1000);
+}
+
+/// Lights below each binary node.
+fn lights_below(binary: &[Node]) -> Vec<usize> {
+    let mut lights = vec![1; binary.len()];
+    for index in (0..binary.len()).rev() {
+        if !binary[index].is_leaf() {
+            lights[index] = lights[index + 1] + lights[binary[index].link as usize];
+        }
+    }
+    lights
+}
+
+/// The fewest wide nodes for the subtree of interior node `v`, its own included: one, plus the
+/// least over every cut of `v` into at most eight lanes.
+fn fewest_by_enumeration(binary: &[Node], v: usize) -> usize {
+    1 + opened(binary, v)
+        .into_iter()
+        .flatten()
+        .min()
+        .expect("two lanes at least")
+}
+
+/// Entry j − 1: the fewest wide nodes below `v`'s own when it is opened into exactly j lanes.
+fn opened(binary: &[Node], v: usize) -> [Option<usize>; LANES] {
+    let left = as_lanes(binary, v + 1);
+    let right = as_lanes(binary, binary[v].link as usize);
+    let mut out = [None; LANES];
+    for (i, a) in left.iter().enumerate() {
+        for (j, b) in right.iter().enumerate() {
+            if let (Some(a), Some(b), Some(slot)) = (a, b, out.get_mut(i + j + 1)) {
+                *slot = Some(slot.map_or(a + b, |s: usize| s.min(a + b)));
+            }
+        }
+    }
+    out
+}
+
+/// Entry j − 1: the fewest wide nodes that node `x` as exactly j lanes brings: kept as one lane
+/// (none for a light, its own and those below for a subtree) or opened.
+fn as_lanes(binary: &[Node], x: usize) -> [Option<usize>; LANES] {
+    if binary[x].is_leaf() {
+        let mut light = [None; LANES];
+        light[0] = Some(0);
+        return light;
+    }
+    let mut lanes = opened(binary, x);
+    lanes[0] = Some(fewest_by_enumeration(binary, x));
+    lanes
+}
