@@ -83,7 +83,9 @@ impl Brdf {
     }
 
     /// The cosines n·wo, n·wi, wo·h and GGX D(h) = α²/(π·((n·h)²(α² − 1) + 1)²) at the half
-    /// vector h = (wo + wi)/|wo + wi|; None when either direction lies below n.
+    /// vector h = (wo + wi)/|wo + wi|; None when either direction lies below n. D is left 0
+    /// for a material without a specular lobe (metallic = specular = 0), where neither f (its
+    /// Fresnel term is 0) nor the pdf (p_s = 0) reads it.
     #[inline]
     fn half_vector_terms(&self, n: Vec3, wo: Vec3, wi: Vec3) -> Option<HalfVectorTerms> {
         let n_dot_v = n.dot(wo);
@@ -92,14 +94,19 @@ impl Brdf {
             return None;
         }
         let h = (wo + wi).normalize();
-        let a2 = self.alpha * self.alpha;
-        let n_dot_h = n.dot(h).clamp(0.0, 1.0);
-        let denom = n_dot_h * n_dot_h * (a2 - 1.0) + 1.0;
+        let d = if self.metallic == 0.0 && self.specular == 0.0 {
+            0.0
+        } else {
+            let a2 = self.alpha * self.alpha;
+            let n_dot_h = n.dot(h).clamp(0.0, 1.0);
+            let denom = n_dot_h * n_dot_h * (a2 - 1.0) + 1.0;
+            a2 * FRAC_1_PI / (denom * denom)
+        };
         Some(HalfVectorTerms {
             n_dot_v,
             n_dot_l,
             v_dot_h: wo.dot(h).clamp(0.0, 1.0),
-            d: a2 * FRAC_1_PI / (denom * denom),
+            d,
         })
     }
 }
@@ -321,12 +328,11 @@ mod tests {
         }
     }
 
-    /// The shared terms give exactly what `eval` and `pdf` give on their own, on both sides of
-    /// the surface and for a material with each lobe alone.
+    /// `pdf_of` the terms `evaluate` kept gives exactly what `pdf` gives on its own, on both
+    /// sides of the surface and for a material with each lobe alone (f itself is checked by
+    /// the Lambert and quadrature tests).
     #[test]
     fn pdf_of_an_evaluation_equals_pdf() {
-        // `evaluate` keeps the half-vector terms for `pdf_of` (f is covered by the
-        // quadrature and Lambert tests, `eval` being `evaluate`'s f).
         let materials = [
             Material::lambert(Vec3::new(0.2, 0.5, 0.8)),
             Material {

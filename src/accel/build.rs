@@ -39,7 +39,7 @@ use super::cut::{sah_cut, Item};
 /// the thorough build took 513 ms against 159 ms for a gain within the noise, so it stops here.
 const THOROUGH_BUILD_MAX_TRIANGLES: usize = 1 << 15;
 
-/// Most triangles in a CWBVH leaf (obvhs allows 1 to 3; its presets ask for 3). Two gave 8–11%
+/// Most triangles in a CWBVH leaf (obvhs allows 1 to 3; its presets ask for 3). Two gave 9–14%
 /// more rays/s on the town and 50k city than three, with the images unchanged; one was slower
 /// on the city (−3 to −8%) and the Cornell box (−20%) (`cargo bench --bench rays`).
 const LEAF_MAX: u32 = 2;
