@@ -39,7 +39,7 @@ fn town_benches(c: &mut Criterion) {
         });
     }
     let accel = Accel::build(&scene);
-    let points = shading_points(&scene, &accel, 32, 32);
+    let points = shading_points(&scene, &accel, 32, 32, false);
     for kind in SELECTORS {
         let mut lights = Lights::from_scene(&scene);
         let selector = LightSelector::build(kind, &mut lights).expect("town has lights");

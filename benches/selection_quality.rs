@@ -1,5 +1,7 @@
 //! How close each selector's choice is to the oracle's, without Monte Carlo noise: at shading
-//! points where camera rays hit the scene, the chi-square divergence of the selector's pmf p_l
+//! points where camera rays hit a surface without emission (the pixels the lit-surface MSE
+//! counts: a point on an emitter sees its own triangle at cos θ = 0, where the oracle's
+//! polygon formula is singular and dwarfed every other point), the chi-square divergence of the selector's pmf p_l
 //! from the oracle's q_l (each light's exact unshadowed contribution, normalised),
 //!     χ² = Σ_l q_l² / p_l − 1,
 //! which is the relative variance of an estimate that picks one light with p_l and then knows
@@ -92,7 +94,7 @@ fn main() {
     );
     for (name, scene) in [("town", &town), ("city50k", &city)] {
         let accel = Accel::build(scene);
-        let points = shading_points(scene, &accel, GRID, GRID * 3 / 4);
+        let points = shading_points(scene, &accel, GRID, GRID * 3 / 4, true);
         for kind in [
             SelectorKind::Uniform,
             SelectorKind::Power,

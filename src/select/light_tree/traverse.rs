@@ -43,9 +43,9 @@ impl LightBvh {
         count: usize,
         bounds_of: impl Fn(usize) -> LightBounds + Sync,
     ) -> (LightBvh, Vec<u32>) {
-        let (nodes, grid, order) = binary_tree(count, bounds_of);
+        let (nodes, grid, order, points) = binary_tree(count, bounds_of);
         let tree = LightBvh {
-            nodes: collapse(&nodes, &grid),
+            nodes: collapse(&nodes, &grid, &points),
             lights: order.len(),
             avx2: has_avx2_fma(),
         };
@@ -290,12 +290,12 @@ fn choose_lane(importances: &[f64; LANES], target: f64) -> (usize, f64) {
     last
 }
 
-/// The binary build tree over `count` lights (depth-first, root at 0), its grid, and the
-/// included lights' indices in leaf order (see [`LightBvh::build`]).
+/// The binary build tree over `count` lights (depth-first, root at 0), its grid, the included
+/// lights' indices in leaf order (see [`LightBvh::build`]) and their power points in that order.
 pub(super) fn binary_tree(
     count: usize,
     bounds_of: impl Fn(usize) -> LightBounds + Sync,
-) -> (Vec<Node>, Grid, Vec<u32>) {
+) -> (Vec<Node>, Grid, Vec<u32>, Vec<PowerPoint>) {
     let mut prims: Vec<Prim> = (0..count)
         .into_par_iter()
         .map(|i| Prim::new(i, &bounds_of(i)).unwrap_or(Prim::LEFT_OUT))
@@ -323,5 +323,12 @@ pub(super) fn binary_tree(
         tree.build(&grid, centroids);
     }
     let order = prims.iter().map(|p| p.id).collect();
-    (nodes, grid, order)
+    let points = prims
+        .par_iter()
+        .map(|p| PowerPoint {
+            position: p.centroid().into(),
+            phi: p.phi,
+        })
+        .collect();
+    (nodes, grid, order, points)
 }

@@ -13,7 +13,7 @@
 //! parent links. The nodes of a node's interior lanes are consecutive, so one
 //! index per node finds them all.
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
 use super::*;
@@ -45,8 +45,11 @@ pub(super) struct WideNode {
     pub(super) cos_o: [u16; LANES],
     /// cos θe of the emission spread ([`decode_cos`] code).
     pub(super) cos_e: [u16; LANES],
-    /// Power Φ, negated for two-sided children; 0 in unused lanes.
-    pub(super) signed_phi: [f32; LANES],
+    /// Power Φ ([`encode_phi`] code: bfloat16, negative for two-sided children); 0 in unused lanes.
+    pub(super) phi: [u16; LANES],
+    /// The lane's power centre (its lights' box centres weighted by Φ) relative to its sphere:
+    /// centre + code · radius / [`OFFSET_MAX`], axis by axis.
+    pub(super) power_centre: [[i8; LANES]; 3],
     /// First light id of the lane's range ([`EMPTY_LANE`] if unused); a single light's id.
     pub(super) first: [u32; LANES],
     pub(super) origin: [f32; 3],
@@ -70,7 +73,8 @@ impl WideNode {
             axis: [[0; LANES], [0; LANES], [i16::MAX; LANES]],
             cos_o: [COS_MAX as u16; LANES],
             cos_e: [COS_MAX as u16; LANES],
-            signed_phi: [0.0; LANES],
+            phi: [0; LANES],
+            power_centre: [[0; LANES]; 3],
             first: [EMPTY_LANE; LANES],
             origin: [0.0; 3],
             step: [0.0; 3],
@@ -91,9 +95,15 @@ impl WideNode {
         }
     }
 
-    /// The node of `lanes` (binary nodes with their ranges), interior lanes' nodes numbered
-    /// from `children` on.
-    fn new(binary: &[Node], grid: &Grid, lanes: &[Lane], children: u32) -> WideNode {
+    /// The node of `lanes` (binary nodes with their ranges; `points` the lights' power points
+    /// in leaf order), interior lanes' nodes numbered from `children` on.
+    fn new(
+        binary: &[Node],
+        grid: &Grid,
+        points: &[PowerPoint],
+        lanes: &[Lane],
+        children: u32,
+    ) -> WideNode {
         let mut node = WideNode::empty();
         let mut bounds = [(binary[0].bounds(grid), Vec3::ZERO, 0.0); LANES];
         let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
@@ -122,13 +132,22 @@ impl WideNode {
                 field[k] = code;
             }
             node.radius[k] = encode_radius(*radius, radius_step);
+            let sphere_centre = centres.decode(*centre).as_dvec3();
+            let power = power_centre(&points[lane.first..lane.first + lane.count]);
+            let offset = encode_offset(
+                power - sphere_centre,
+                f32::from(node.radius[k]) * radius_step,
+            );
+            for (field, code) in node.power_centre.iter_mut().zip(offset) {
+                field[k] = code;
+            }
             let (axis, cos_o) = encode_axis(b.w, b.cos_theta_o);
             for (field, code) in node.axis.iter_mut().zip(axis) {
                 field[k] = code;
             }
             node.cos_o[k] = cos_o as u16;
             node.cos_e[k] = encode_cos(f64::from(b.cos_theta_e)) as u16;
-            node.signed_phi[k] = if b.two_sided { -b.phi } else { b.phi };
+            node.phi[k] = encode_phi(b.phi, b.two_sided);
             node.first[k] = lane.first as u32;
             if binary[lane.index].is_leaf() {
                 debug_assert_eq!(binary[lane.index].link as usize, lane.first);
@@ -165,7 +184,7 @@ const PARALLEL_COLLAPSE_MIN: usize = 1 << 14;
 /// first, down to lanes of fewer than [`PARALLEL_COLLAPSE_MIN`] lights, whose nodes get their
 /// places there; the subtrees below those lanes are counted, given their ranges of the list,
 /// and collapsed into them in parallel.
-pub(super) fn collapse(binary: &[Node], grid: &Grid) -> Vec<WideNode> {
+pub(super) fn collapse(binary: &[Node], grid: &Grid, points: &[PowerPoint]) -> Vec<WideNode> {
     if binary.is_empty() {
         return Vec::new();
     }
@@ -190,7 +209,7 @@ pub(super) fn collapse(binary: &[Node], grid: &Grid) -> Vec<WideNode> {
                 pending.push(child);
             }
         }
-        wide[at] = WideNode::new(binary, grid, &lanes, children);
+        wide[at] = WideNode::new(binary, grid, points, &lanes, children);
     }
     // The nodes below each deferred lane's own.
     let counts: Vec<usize> = deferred
@@ -213,12 +232,43 @@ pub(super) fn collapse(binary: &[Node], grid: &Grid) -> Vec<WideNode> {
     }
     let roots: Vec<(usize, WideNode)> = blocks
         .into_par_iter()
-        .map(|(lane, at, block, base)| (at, collapse_block(binary, grid, lane, block, base)))
+        .map(|(lane, at, block, base)| {
+            let node = collapse_block(binary, grid, points, lane, block, base);
+            (at, node)
+        })
         .collect();
     for (at, node) in roots {
         wide[at] = node;
     }
     wide
+}
+
+/// A light's box centre and power Φ > 0: what a lane's power centre averages.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct PowerPoint {
+    pub(super) position: Vec3,
+    pub(super) phi: f32,
+}
+
+/// Above this many lights a lane's power centre is summed in parallel.
+const PARALLEL_POWER_MIN: usize = 1 << 16;
+
+/// Σ Φ_i x_i / Σ Φ_i over `points` (in f64).
+fn power_centre(points: &[PowerPoint]) -> DVec3 {
+    let add = |(sum, phi): (DVec3, f64), p: &PowerPoint| {
+        let w = f64::from(p.phi);
+        (sum + p.position.as_dvec3() * w, phi + w)
+    };
+    let merge = |a: (DVec3, f64), b: (DVec3, f64)| (a.0 + b.0, a.1 + b.1);
+    let (sum, phi) = if points.len() >= PARALLEL_POWER_MIN {
+        points
+            .par_iter()
+            .fold(|| (DVec3::ZERO, 0.0), add)
+            .reduce(|| (DVec3::ZERO, 0.0), merge)
+    } else {
+        points.iter().fold((DVec3::ZERO, 0.0), add)
+    };
+    sum / phi
 }
 
 /// The interior lanes among `lanes`, in lane order.
@@ -232,6 +282,7 @@ fn interior<'a>(binary: &'a [Node], lanes: &'a [Lane]) -> impl Iterator<Item = &
 fn collapse_block(
     binary: &[Node],
     grid: &Grid,
+    points: &[PowerPoint],
     start: Lane,
     block: &mut [WideNode],
     base: u32,
@@ -246,7 +297,7 @@ fn collapse_block(
             pending.push((lane, Some(used)));
             used += 1;
         }
-        let node = WideNode::new(binary, grid, &lanes, children);
+        let node = WideNode::new(binary, grid, points, &lanes, children);
         match at {
             Some(at) => block[at] = node,
             None => root = node,

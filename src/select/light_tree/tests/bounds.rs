@@ -120,9 +120,15 @@ fn cone_union_holds_both_cones() {
 }
 
 /// The importance written with angles (acos, asin) in f64 from the formula in
-/// `lanes`' header, for comparison with the lanes' (cos, sin) arithmetic;
-/// `None` near a threshold.
-fn importance_with_angles(b: &LightBounds, radius: f32, p: Vec3, n: Vec3) -> Option<f64> {
+/// `lanes`' header, for comparison with the lanes' (cos, sin) arithmetic, the
+/// distance term measured from `power_centre`; `None` near a threshold.
+fn importance_with_angles(
+    b: &LightBounds,
+    radius: f32,
+    power_centre: Vec3,
+    p: Vec3,
+    n: Vec3,
+) -> Option<f64> {
     use std::f64::consts::FRAC_PI_2;
     let centre = ((b.lo + b.hi) * 0.5).as_dvec3();
     let (p, n) = (p.as_dvec3(), n.as_dvec3());
@@ -177,7 +183,9 @@ fn importance_with_angles(b: &LightBounds, radius: f32, p: Vec3, n: Vec3) -> Opt
     } else {
         received.max(f64::from(COS_SLACK))
     };
-    let d_sq = (d * d).max(0.25 * r * r);
+    let d_sq = p
+        .distance_squared(power_centre.as_dvec3())
+        .max(0.25 * r * r);
     Some(f64::from(b.phi) * emitted * received / d_sq)
 }
 
@@ -192,8 +200,9 @@ fn lane_importance_matches_the_bound_written_with_angles() {
             let lanes = importances(node, p, n);
             let decoded = Decoded::of(node);
             for k in (0..LANES).filter(|&k| node.first[k] != EMPTY_LANE) {
-                let phi = node.signed_phi[k];
+                let phi = decoded.signed_phi[k];
                 let at = |field: &[[f32; LANES]; 3]| Vec3::from_array(field.map(|f| f[k]));
+                let power_centre = at(&decoded.power_centre);
                 let (c, w) = (at(&decoded.centre), at(&decoded.axis));
                 let b = LightBounds {
                     lo: c,
@@ -204,7 +213,8 @@ fn lane_importance_matches_the_bound_written_with_angles() {
                     cos_theta_e: decoded.cos_e[k],
                     two_sided: phi < 0.0,
                 };
-                let Some(expected) = importance_with_angles(&b, decoded.radius[k], p, n) else {
+                let radius = decoded.radius[k];
+                let Some(expected) = importance_with_angles(&b, radius, power_centre, p, n) else {
                     continue;
                 };
                 let got = f64::from(lanes[k]);
@@ -296,7 +306,8 @@ fn wide_lanes_hold_their_lights() {
                     assert!(need <= f64::from(lanes.cos_o[k]).acos(), "light {id} cone");
                 }
                 assert!(lanes.cos_e[k] <= light.cos_theta_e);
-                assert!(lanes.signed_phi[k].abs() >= light.phi * (1.0 - 1e-6));
+                // Φ is rounded to nearest in bfloat16 (8 significant bits).
+                assert!(lanes.signed_phi[k].abs() >= light.phi * (1.0 - 1.0 / 256.0));
                 assert!(!light.two_sided || lanes.signed_phi[k] < 0.0);
                 checked += 1;
                 let child = node.child(k);
@@ -309,4 +320,62 @@ fn wide_lanes_hold_their_lights() {
         }
     }
     println!("{checked} lanes checked");
+}
+
+#[test]
+fn lanes_know_their_power_centre_and_power() {
+    let mut rng = Rand::new(13);
+    let mut checked = 0;
+    for (scale, offset) in [(1e-4, 0.0), (1.0, 0.0), (1e6, 0.0), (1.0, 1e6)] {
+        let scene = random_scene(&mut rng, 3000);
+        let lights: Vec<LightBounds> = scene
+            .bounds
+            .iter()
+            .map(|b| LightBounds {
+                lo: b.lo * scale + Vec3::splat(offset),
+                hi: b.hi * scale + Vec3::splat(offset),
+                ..*b
+            })
+            .collect();
+        let (bvh, order) = LightBvh::build(&lights);
+        // Σ Φ·(box centre) and Σ Φ of every lane, gathered light by light along its path.
+        let mut sums: std::collections::HashMap<(usize, usize), (DVec3, f64)> = Default::default();
+        for (id, &original) in order.iter().enumerate() {
+            let light = &lights[original as usize];
+            let centre = (light.lo.min(light.hi) + light.lo.max(light.hi)).as_dvec3() * 0.5;
+            let phi = f64::from(light.phi);
+            let mut index = 0;
+            loop {
+                let node = &bvh.nodes[index];
+                let k = node.lane_of(id as u32).expect("a lane holds every light");
+                let sum = sums.entry((index, k)).or_default();
+                *sum = (sum.0 + centre * phi, sum.1 + phi);
+                let child = node.child(k);
+                if child & LIGHT_LANE != 0 {
+                    break;
+                }
+                index = child as usize;
+            }
+        }
+        for (&(index, k), &(weighted, phi)) in &sums {
+            let lanes = Decoded::of(&bvh.nodes[index]);
+            let expected = weighted / phi;
+            let got = DVec3::from_array(lanes.power_centre.map(|c| f64::from(c[k])));
+            // Offsets are coded in steps of r/127 (half a step off at most), then decoded in f32.
+            let r = f64::from(lanes.radius[k]);
+            let slack = r / 254.0 + 1e-6 * (expected.abs().max_element() + r);
+            assert!(
+                (got - expected).abs().max_element() <= slack,
+                "node {index} lane {k}: power centre {got} vs {expected} (r {r})"
+            );
+            let coded = f64::from(lanes.signed_phi[k].abs());
+            assert!(
+                (coded - phi).abs() <= phi / 256.0,
+                "node {index} lane {k}: Φ {coded} vs {phi}"
+            );
+            checked += 1;
+        }
+    }
+    println!("{checked} lanes checked");
+    assert!(checked > 1000);
 }

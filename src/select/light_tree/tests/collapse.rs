@@ -10,7 +10,7 @@ fn small_subtrees_take_the_fewest_wide_nodes() {
     let mut checked = 0;
     for count in [20, 300, 3000] {
         let scene = random_scene(&mut rng, count);
-        let (binary, _, _) = binary_tree(scene.bounds.len(), |i| scene.bounds[i]);
+        let (binary, _, _, _) = binary_tree(scene.bounds.len(), |i| scene.bounds[i]);
         let lights = lights_below(&binary);
         for (index, &lights) in lights.iter().enumerate() {
             if binary[index].is_leaf() || lights > SMALL_SUBTREE {
