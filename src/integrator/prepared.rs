@@ -6,6 +6,7 @@ use std::time::Instant;
 use super::{Estimator, Strategy};
 use crate::accel::Accel;
 use crate::lights::Lights;
+use crate::scene::memory::lights_before_geometry;
 use crate::scene::Scene;
 use crate::select::{LightSelector, SelectorKind};
 
@@ -22,14 +23,28 @@ pub struct PreparedScene {
 }
 
 impl PreparedScene {
+    /// The ray accelerator and the lights are built one after the other, in the order
+    /// `lights_before_geometry` chooses so that the larger build's temporaries are not alive
+    /// beside the other's finished structure.
     pub fn new(scene: Scene, kind: SelectorKind) -> PreparedScene {
-        let t = Instant::now();
-        let accel = Accel::build(&scene);
-        let bvh_seconds = t.elapsed().as_secs_f64();
-        let t = Instant::now();
-        let mut lights = Lights::from_scene(&scene);
-        let selector = LightSelector::build(kind, &mut lights);
-        let light_seconds = t.elapsed().as_secs_f64();
+        let build_accel = |scene: &Scene| {
+            let t = Instant::now();
+            (Accel::build(scene), t.elapsed().as_secs_f64())
+        };
+        let build_lights = |scene: &Scene| {
+            let t = Instant::now();
+            let mut lights = Lights::from_scene(scene);
+            let selector = LightSelector::build(kind, &mut lights);
+            (lights, selector, t.elapsed().as_secs_f64())
+        };
+        let ((accel, bvh_seconds), (lights, selector, light_seconds)) =
+            if lights_before_geometry(scene.emissive_triangles() as u64) {
+                let lights = build_lights(&scene);
+                (build_accel(&scene), lights)
+            } else {
+                let accel = build_accel(&scene);
+                (accel, build_lights(&scene))
+            };
         PreparedScene {
             scene,
             accel,

@@ -77,11 +77,9 @@ impl Lights {
     /// One light per triangle whose material emits, then the punctual lights, then the
     /// environment map (its sampling distribution built here from the scene's image).
     pub fn from_scene(scene: &Scene) -> Lights {
-        let emissive =
-            |t: &crate::scene::Triangle| scene.materials[t.material as usize].is_emissive();
         // Sized once: a million lights grown by doubling would hold 1.5× their bytes at a time.
         let mut lights = Vec::with_capacity(
-            scene.triangles.iter().filter(|t| emissive(t)).count()
+            scene.emissive_triangles()
                 + scene.punctual.len()
                 + usize::from(scene.environment.is_some()),
         );
@@ -126,7 +124,10 @@ impl Lights {
     }
 
     fn index_triangles(&mut self, triangles: usize) {
-        self.light_of_triangle = vec![u32::MAX; triangles];
+        // Refilled in place: a second table beside the first would add 4 B per triangle to the
+        // light BVH's build peak, when `reorder` calls this.
+        self.light_of_triangle.clear();
+        self.light_of_triangle.resize(triangles, u32::MAX);
         self.environment = None;
         for (l, light) in self.lights.iter().enumerate() {
             match light {

@@ -2,6 +2,8 @@
 //! lengths, indices between the file's own objects, and every accessor's type, extent, range and
 //! finiteness. Each check returns the message for the loader's error.
 
+use std::borrow::Cow;
+
 use gltf::accessor::{DataType, Dimensions};
 
 /// Checks what the `gltf` crate's GLB reader takes on trust, so that a truncated file or one
@@ -128,7 +130,7 @@ pub(super) fn check_accessor(
     what: &str,
     dims: &[Dimensions],
     types: &[DataType],
-    buffers: &[Vec<u8>],
+    buffers: &[Cow<[u8]>],
 ) -> Result<(), String> {
     if !dims.contains(&acc.dimensions()) || !types.contains(&acc.data_type()) {
         return Err(format!(
@@ -163,7 +165,7 @@ pub(super) const MAX_VIEWLESS_ELEMENTS: usize = 1 << 24;
 /// stride smaller than the element, panics inside it), so this runs before any read.
 pub(super) fn check_accessor_extent(
     acc: &gltf::Accessor,
-    buffers: &[Vec<u8>],
+    buffers: &[Cow<[u8]>],
 ) -> Result<(), String> {
     let size = acc.size();
     if let Some(view) = acc.view() {
@@ -196,9 +198,9 @@ pub(super) fn check_elements(
     offset: usize,
     count: usize,
     size: usize,
-    buffers: &[Vec<u8>],
+    buffers: &[Cow<[u8]>],
 ) -> Result<(), String> {
-    let present = buffers.get(view.buffer().index()).map_or(0, Vec::len);
+    let present = buffers.get(view.buffer().index()).map_or(0, |b| b.len());
     let view_end = view.offset().checked_add(view.length());
     if view_end.is_none_or(|end| end > present) {
         return Err(format!(

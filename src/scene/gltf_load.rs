@@ -24,6 +24,7 @@
 //! implemented; a file requiring any other is refused with a message naming it and what it
 //! would change. Cameras: perspective and orthographic (`camera.rs`).
 
+use std::borrow::Cow;
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
@@ -174,9 +175,7 @@ pub fn load_gltf_bytes_allowing(
     };
     check_glb_header(bytes).map_err(format)?;
     // Parse, check what the crate's validator indexes unchecked, then validate.
-    let gltf::Gltf { document, blob } =
-        gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| format(e.to_string()))?;
-    let root = document.into_json();
+    let (root, blob) = parse(bytes).map_err(|e| format(e.to_string()))?;
     check_unchecked_indices(&root).map_err(format)?;
     check_required_extensions(&root).map_err(format)?;
     let document = gltf::Document::from_json(root).map_err(|e| format(e.to_string()))?;
@@ -339,12 +338,29 @@ pub(super) fn quoted(name: Option<&str>) -> String {
     name.map(|n| format!(" '{n}'")).unwrap_or_default()
 }
 
+/// A buffer's bytes: borrowed from the file (a GLB's binary chunk) or read from elsewhere.
+type Chunk<'a> = Cow<'a, [u8]>;
+
+/// The JSON of a .gltf, or the JSON and binary chunk of a GLB, parsed as
+/// `gltf::Gltf::from_slice_without_validation` parses them (same errors), except that the
+/// binary chunk is borrowed from `bytes` instead of copied: a copy would add the whole file
+/// (87 MB for the 1M-emitter city) to the load's peak memory.
+fn parse(bytes: &[u8]) -> Result<(gltf::json::Root, Option<Chunk<'_>>), gltf::Error> {
+    if !bytes.starts_with(b"glTF") {
+        let root = gltf::json::deserialize::from_slice(bytes).map_err(gltf::Error::Deserialize)?;
+        return Ok((root, None));
+    }
+    let glb = gltf::binary::Glb::from_slice(bytes)?;
+    let root = gltf::json::deserialize::from_slice(&glb.json).map_err(gltf::Error::Deserialize)?;
+    Ok((root, glb.bin))
+}
+
 /// Loads every buffer: the GLB binary chunk, a base64 data URI, or a file next to the scene.
-fn load_buffers(
+fn load_buffers<'a>(
     document: &gltf::Document,
-    mut blob: Option<Vec<u8>>,
+    mut blob: Option<Cow<'a, [u8]>>,
     files: FileAccess,
-) -> Result<Vec<Vec<u8>>, (String, String)> {
+) -> Result<Vec<Cow<'a, [u8]>>, (String, String)> {
     let mut buffers = Vec::new();
     for buffer in document.buffers() {
         let element = format!("buffer {}", buffer.index());
@@ -356,7 +372,8 @@ fn load_buffers(
                 )
             })?,
             gltf::buffer::Source::Uri(uri) => {
-                read_uri(uri, Some(buffer.length()), files).map_err(|m| (element.clone(), m))?
+                let data = read_uri(uri, Some(buffer.length()), files);
+                Cow::Owned(data.map_err(|m| (element.clone(), m))?)
             }
         };
         if data.len() < buffer.length() {
@@ -375,7 +392,7 @@ fn load_buffers(
 }
 
 pub(super) struct Loader<'a> {
-    pub(super) buffers: &'a [Vec<u8>],
+    pub(super) buffers: &'a [Cow<'a, [u8]>],
     /// Where external image files may be read.
     pub(super) files: FileAccess<'a>,
     pub(super) materials: Vec<Material>,
@@ -399,7 +416,7 @@ impl Loader<'_> {
         out: &mut Vec<Triangle>,
         stats: &mut LoadStats,
     ) -> Result<(), String> {
-        let reader = prim.reader(|b| self.buffers.get(b.index()).map(Vec::as_slice));
+        let reader = prim.reader(|b| self.buffers.get(b.index()).map(|b| &**b));
         let pos_acc = prim
             .get(&gltf::Semantic::Positions)
             .ok_or("has no POSITION attribute")?;

@@ -374,6 +374,12 @@ impl Scene {
         self
     }
 
+    /// How many triangles emit (the lights they will make).
+    pub fn emissive_triangles(&self) -> usize {
+        let emits = |t: &&Triangle| self.materials[t.material as usize].is_emissive();
+        self.triangles.iter().filter(emits).count()
+    }
+
     pub fn material_of(&self, triangle: usize) -> &Material {
         &self.materials[self.triangles[triangle].material as usize]
     }
