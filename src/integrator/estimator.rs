@@ -23,6 +23,7 @@ use super::Strategy;
 use crate::accel::{offset_ray_origin, Accel, Hit};
 use crate::lights::{emits_toward, EnvironmentMap, Light, Lights, Technique, TriangleLight};
 use crate::material::Brdf;
+use crate::sampling::prefetch::prefetch;
 use crate::sampling::sampler::CameraSample;
 use crate::sampling::warp::{self, Frame};
 use crate::scene::Scene;
@@ -144,10 +145,20 @@ impl Estimator<'_> {
             Strategy::LightSolidAngle => {
                 self.light_samples(&x, Technique::SolidAngle, false, cs, counts)
             }
-            Strategy::Bsdf => self.bsdf_samples(&x, false, cs, counts),
+            Strategy::Bsdf => {
+                let first = self.bsdf_ray(&x, 0, cs, counts);
+                self.bsdf_samples_after(&x, false, first, cs, counts)
+            }
             Strategy::Mis => {
+                // The first BSDF ray goes out before the light samples, so that the cache miss
+                // on the triangle it hits overlaps their work instead of stalling its own
+                // shading; the sum is the same.
+                let first = self.bsdf_ray(&x, 0, cs, counts);
+                if let Some((_, Some(hit))) = &first {
+                    prefetch(&self.scene.triangles[hit.triangle as usize]);
+                }
                 self.light_samples(&x, Technique::SolidAngle, true, cs, counts)
-                    + self.bsdf_samples(&x, true, cs, counts)
+                    + self.bsdf_samples_after(&x, true, first, cs, counts)
             }
             Strategy::HemisphereUniform | Strategy::HemisphereCosine => {
                 self.hemisphere(&x, cs, counts)
@@ -380,49 +391,84 @@ impl Estimator<'_> {
         }
     }
 
+    /// BSDF slot j's direction and the closest hit of its ray (None: nothing hit); None when
+    /// the BRDF gives no direction or it falls below the geometric surface (no ray).
+    #[inline]
+    fn bsdf_ray(
+        &self,
+        x: &ShadingPoint,
+        j: u32,
+        cs: &CameraSample,
+        counts: &mut SampleCounts,
+    ) -> Option<(Vec3, Option<Hit>)> {
+        let wi = x
+            .brdf
+            .sample(x.ns, x.wo, cs.bsdf_lobe(j), cs.bsdf_direction(j))?;
+        if x.ng.dot(wi) <= 0.0 {
+            return None;
+        }
+        counts.bounce_rays += 1;
+        let origin = offset_ray_origin(x.p, x.ng);
+        Some((wi, self.accel.closest_hit(origin, wi, f32::INFINITY)))
+    }
+
     /// Σ over K·N BRDF-sampled directions of f · Le · cosθ / (K · N · p(ω)), each weighted by
-    /// the power heuristic against light sampling when `mis`.
-    fn bsdf_samples(
+    /// the power heuristic against light sampling when `mis`; slot 0's ray is `first`, already
+    /// traced by `bsdf_ray`.
+    fn bsdf_samples_after(
         &self,
         x: &ShadingPoint,
         mis: bool,
+        first: Option<(Vec3, Option<Hit>)>,
         cs: &CameraSample,
         counts: &mut SampleCounts,
     ) -> Vec3 {
         let samples = (self.k * self.n) as f32;
-        let origin = offset_ray_origin(x.p, x.ng);
         let mut sum = Vec3::ZERO;
-        for j in 0..self.k * self.n {
-            let u_lobe = cs.bsdf_lobe(j);
-            let Some(wi) = x.brdf.sample(x.ns, x.wo, u_lobe, cs.bsdf_direction(j)) else {
+        if let Some(term) = first.and_then(|(wi, hit)| self.bsdf_term(x, mis, samples, wi, hit)) {
+            sum += term;
+        }
+        for j in 1..self.k * self.n {
+            let Some((wi, hit)) = self.bsdf_ray(x, j, cs, counts) else {
                 continue;
             };
-            if x.ng.dot(wi) <= 0.0 {
-                continue;
+            if let Some(term) = self.bsdf_term(x, mis, samples, wi, hit) {
+                sum += term;
             }
-            counts.bounce_rays += 1;
-            let hit = self.accel.closest_hit(origin, wi, f32::INFINITY);
-            let le = match &hit {
-                Some(hit) => self.emission_at(hit, -wi),
-                None => self.environment_radiance(wi),
-            };
-            if le == Vec3::ZERO {
-                continue;
-            }
-            // Only a direction that found emission needs f and its density.
-            let brdf = x.brdf.evaluate(x.ns, x.wo, wi);
-            let pdf = x.brdf.pdf_of(&brdf);
-            if pdf <= 0.0 {
-                continue;
-            }
-            let weight = match (mis, &hit) {
-                (false, _) => 1.0,
-                (true, Some(hit)) => self.bsdf_mis_weight(x, hit, wi, pdf),
-                (true, None) => self.environment_mis_weight(x, wi, pdf),
-            };
-            sum += brdf.f * le * x.ns.dot(wi) * weight / (samples * pdf);
         }
         sum
+    }
+
+    /// f · Le · cosθ · w / (K · N · p(ω)) of one traced BSDF direction; None when it found no
+    /// emission or its density is 0.
+    #[inline]
+    fn bsdf_term(
+        &self,
+        x: &ShadingPoint,
+        mis: bool,
+        samples: f32,
+        wi: Vec3,
+        hit: Option<Hit>,
+    ) -> Option<Vec3> {
+        let le = match &hit {
+            Some(hit) => self.emission_at(hit, -wi),
+            None => self.environment_radiance(wi),
+        };
+        if le == Vec3::ZERO {
+            return None;
+        }
+        // Only a direction that found emission needs f and its density.
+        let brdf = x.brdf.evaluate(x.ns, x.wo, wi);
+        let pdf = x.brdf.pdf_of(&brdf);
+        if pdf <= 0.0 {
+            return None;
+        }
+        let weight = match (mis, &hit) {
+            (false, _) => 1.0,
+            (true, Some(hit)) => self.bsdf_mis_weight(x, hit, wi, pdf),
+            (true, None) => self.environment_mis_weight(x, wi, pdf),
+        };
+        Some(brdf.f * le * x.ns.dot(wi) * weight / (samples * pdf))
     }
 
     /// Power-heuristic weight of a BSDF sample that hit an emitter, against the light sampler's

@@ -5,9 +5,12 @@
 //! only for those lines to be loaded, lets the misses of all its samples overlap with each
 //! other and with the traversal. The choice is made again, identically, when each sample is
 //! shaded: this pass changes no result.
+//! The triangles a packet's camera rays hit are asked for the same way, between its traversal
+//! and its shading.
 
 use super::estimator::Estimator;
 use super::Strategy;
+use crate::accel::Hit;
 use crate::sampling::prefetch::prefetch;
 use crate::sampling::sampler::CameraSample;
 use crate::select::LightSelector;
@@ -39,6 +42,15 @@ impl Estimator<'_> {
                 table.prefetch(l);
                 prefetch(&self.lights.lights[l]);
             }
+        }
+    }
+
+    /// Starts loading the scene triangles that a packet's camera rays hit (positions, normals,
+    /// material), so that their cache misses overlap instead of stalling each sample's shading
+    /// in turn.
+    pub fn prefetch_hits(&self, hits: &[Option<Hit>]) {
+        for hit in hits.iter().flatten() {
+            prefetch(&self.scene.triangles[hit.triangle as usize]);
         }
     }
 }

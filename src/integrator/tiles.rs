@@ -218,6 +218,7 @@ impl TileSums {
         estimator
             .accel
             .closest_hits(&rays[..count], &mut hits[..count]);
+        estimator.prefetch_hits(&hits[..count]);
         for i in 0..count {
             let stats = &mut self.stats;
             let surface_hits = stats.rays.surface_hits;
