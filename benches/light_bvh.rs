@@ -1,13 +1,20 @@
 //! Light BVH speed: build over 50,000 and 1,000,000 random triangle lights
-//! (and the tree's size per light);
+//! (and the tree's size per light), and the `bvh` selector's build over the
+//! emitters of `manylights gen city` with as many lights (what `render`
+//! prints as "light build");
 //! `sample` and `pmf` per call on 50,000.
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
 use glam::Vec3;
+use manylights::gen::generate::city;
+use manylights::lights::Lights;
+use manylights::scene::load_gltf_bytes;
 use manylights::select::light_tree::{LightBounds, LightBvh};
+use manylights::select::BvhSelector;
 use rand_core::Rng;
 use rand_pcg::Pcg32;
 use std::hint::black_box;
+use std::path::Path;
 use std::time::Duration;
 
 struct Rand(Pcg32);
@@ -67,6 +74,24 @@ fn build(c: &mut Criterion) {
         );
         group.bench_function(format!("{count}"), |b| {
             b.iter(|| black_box(LightBvh::build(black_box(&lights))))
+        });
+    }
+    for count in [50_000, 1_000_000] {
+        let bytes = city(count, 1).to_glb_bytes();
+        let scene = load_gltf_bytes(
+            &bytes,
+            Path::new("city.glb"),
+            Path::new("."),
+            &Default::default(),
+        )
+        .expect("generated city loads");
+        let lights = Lights::from_scene(&scene);
+        group.bench_function(format!("city{count}"), |b| {
+            b.iter_batched(
+                || lights.clone(),
+                |mut lights| black_box(BvhSelector::build(&mut lights)),
+                BatchSize::LargeInput,
+            )
         });
     }
     group.finish();
