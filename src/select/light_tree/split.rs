@@ -8,13 +8,16 @@ use glam::{Vec3, Vec3A, Vec4};
 use super::*;
 
 /// A light as the build sees it: sanitised bounds plus its original index.
+/// Laid out so that (lo, cos θo), (hi, Φ) and (w, cos θe) are each 16
+/// consecutive bytes, which the binning loads as one SIMD register.
 #[derive(Clone, Copy, Debug)]
+#[repr(C)]
 pub(super) struct Prim {
     pub(super) lo: Vec3,
-    pub(super) hi: Vec3,
-    pub(super) w: Vec3,
-    pub(super) phi: f32,
     pub(super) cos_o: f32,
+    pub(super) hi: Vec3,
+    pub(super) phi: f32,
+    pub(super) w: Vec3,
     pub(super) cos_e: f32,
     pub(super) id: u32,
     pub(super) two_sided: bool,
@@ -344,23 +347,75 @@ pub(super) fn cheapest_cut(
     best
 }
 
-/// Lights binned by centroid along one axis: their [`Side`] and centroid box.
+/// Lights binned by centroid along one axis, summed as four SIMD lanes each
+/// so that adding a light is four min/max operations: the [`Side`] they make,
+/// with cos θo and cos θe carried in the fourth lane of the lower corners
+/// (both sets keep their smallest).
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Bin {
-    pub(super) side: Side,
-    pub(super) centroids: Aabb,
+    /// The box's lower corner; the smallest cos θo.
+    lo: Vec4,
+    /// The box's upper corner; the fourth lane (the largest Φ) is unused.
+    hi: Vec4,
+    /// The lower corner of the box holding the unit axes; the smallest cos θe.
+    axes_lo: Vec4,
+    /// The upper corner of that box; the fourth lane (the largest cos θe) is unused.
+    axes_hi: Vec4,
+    phi: f64,
+    count: u32,
 }
 
 impl Bin {
     pub(super) const EMPTY: Bin = Bin {
-        side: Side::EMPTY,
-        centroids: Aabb::EMPTY,
+        lo: Vec4::INFINITY,
+        hi: Vec4::NEG_INFINITY,
+        axes_lo: Vec4::INFINITY,
+        axes_hi: Vec4::NEG_INFINITY,
+        phi: 0.0,
+        count: 0,
     };
+
+    /// Adds one light, whose (lo, cos θo), (hi, Φ) and (w, cos θe) are given.
+    #[inline(always)]
+    fn push(&mut self, lo: Vec4, hi: Vec4, w: Vec4, phi: f64) {
+        self.lo = self.lo.min(lo);
+        self.hi = self.hi.max(hi);
+        self.axes_lo = self.axes_lo.min(w);
+        self.axes_hi = self.axes_hi.max(w);
+        self.phi += phi;
+        self.count += 1;
+    }
 
     /// Adds `other`'s lights, in place.
     pub(super) fn add(&mut self, other: &Bin) {
-        self.side.add(&other.side);
-        self.centroids.grow(&other.centroids);
+        self.lo = self.lo.min(other.lo);
+        self.hi = self.hi.max(other.hi);
+        self.axes_lo = self.axes_lo.min(other.axes_lo);
+        self.axes_hi = self.axes_hi.max(other.axes_hi);
+        self.phi += other.phi;
+        self.count += other.count;
+    }
+
+    /// The bucket's lights as a [`Side`] (the same numbers as adding their
+    /// [`Side::of`] one by one, in order, to [`Side::EMPTY`]).
+    pub(super) fn side(&self) -> Side {
+        if self.count == 0 {
+            return Side::EMPTY;
+        }
+        Side {
+            bounds: Aabb {
+                lo: Vec3A::from_vec4(self.lo),
+                hi: Vec3A::from_vec4(self.hi),
+            },
+            axes: Aabb {
+                lo: Vec3A::from_vec4(self.axes_lo),
+                hi: Vec3A::from_vec4(self.axes_hi),
+            },
+            phi: self.phi,
+            count: self.count,
+            cos_o: self.lo.w,
+            cos_e: self.axes_lo.w,
+        }
     }
 }
 
@@ -390,13 +445,12 @@ impl Binner {
         [b.x, b.y, b.z].map(|b| (b as usize).min(BUCKETS - 1))
     }
 
-    /// Whether a light's bucket along `axis` is below `cut` (1 ..= `BUCKETS` − 1), from the
+    /// Whether a centroid's bucket along `axis` is below `cut` (1 ..= `BUCKETS` − 1), from the
     /// offset x that [`buckets`](Self::buckets) truncates, by the same arithmetic. x ≥ 0 (the
     /// box starts at the smallest centroid), so ⌊x⌋ < cut exactly when x < cut, and no
     /// conversion is needed; a NaN x (an overflowing centroid) truncates to bucket 0.
-    pub(super) fn below(&self, p: &Prim, axis: usize, cut: usize) -> bool {
-        let centroid = (p.lo[axis] + p.hi[axis]) * 0.5;
-        let x = (centroid - self.lo[axis]) * self.scale[axis];
+    pub(super) fn below(&self, centroid: Vec3A, axis: usize, cut: usize) -> bool {
+        let x = ((centroid - self.lo) * self.scale)[axis];
         x < cut as f32 || x.is_nan()
     }
 
@@ -413,13 +467,14 @@ impl Binner {
         }
         let mut bins = [[Bin::EMPTY; BUCKETS]; 3];
         for p in prims {
-            let (c, side) = (p.centroid(), Side::of(p));
-            let buckets = self.buckets(c);
+            let buckets = self.buckets(p.centroid());
+            let lo = Vec4::new(p.lo.x, p.lo.y, p.lo.z, p.cos_o);
+            let hi = Vec4::new(p.hi.x, p.hi.y, p.hi.z, p.phi);
+            let w = Vec4::new(p.w.x, p.w.y, p.w.z, p.cos_e);
+            let phi = f64::from(p.phi);
             for (axis, row) in bins.iter_mut().enumerate() {
                 if self.active[axis] {
-                    let bin = &mut row[buckets[axis]];
-                    bin.side.add(&side);
-                    bin.centroids.grow(&Aabb::point(c));
+                    row[buckets[axis]].push(lo, hi, w, phi);
                 }
             }
         }
@@ -473,7 +528,7 @@ pub(super) fn binned_split(prims: &mut [Prim], centroids: Aabb) -> Option<Split>
     let bins = binner.bin(prims);
     let row = bins.iter().zip(binner.active).find(|(_, a)| *a)?.0;
     let mut node = Side::EMPTY;
-    row.iter().for_each(|bin| node.add(&bin.side));
+    row.iter().for_each(|bin| node.add(&bin.side()));
     let (kr, pad, scale) = axis_weights(&node);
     let mut best: Option<(f64, usize, usize)> = None;
     for (axis, row) in bins
@@ -481,7 +536,7 @@ pub(super) fn binned_split(prims: &mut [Prim], centroids: Aabb) -> Option<Split>
         .enumerate()
         .filter(|(axis, _)| binner.active[*axis])
     {
-        if let Some((cost, cut)) = cheapest_cut(BUCKETS, |k| row[k].side, pad, scale) {
+        if let Some((cost, cut)) = cheapest_cut(BUCKETS, |k| row[k].side(), pad, scale) {
             let cost = kr[axis] * f64::from(cost);
             if best.is_none_or(|b| cost < b.0) {
                 best = Some((cost, axis, cut));
@@ -489,16 +544,8 @@ pub(super) fn binned_split(prims: &mut [Prim], centroids: Aabb) -> Option<Split>
         }
     }
     let (_, axis, cut) = best?;
-    let union = |bins: &[Bin]| {
-        bins.iter()
-            .fold(Aabb::EMPTY, |b, bin| b.merge(&bin.centroids))
-    };
-    let mid = partition(prims, |p| binner.below(p, axis, cut));
-    let split = Split {
-        mid,
-        left: union(&bins[axis][..cut]),
-        right: union(&bins[axis][cut..]),
-    };
+    let (mid, left, right) = partition(prims, |c| binner.below(c, axis, cut));
+    let split = Split { mid, left, right };
     (0 < mid && mid < prims.len()).then_some(split)
 }
 
@@ -553,19 +600,34 @@ pub(super) fn sorted_along(keys: &[Vec3A], axis: usize) -> [u8; SMALL_NODE] {
     order
 }
 
-/// Moves the lights for which `goes_left` holds to the front (swapping
-/// misplaced pairs from both ends); returns how many.
-pub(super) fn partition(prims: &mut [Prim], goes_left: impl Fn(&Prim) -> bool) -> usize {
+/// Moves the lights whose centroid `goes_left` to the front (swapping
+/// misplaced pairs from both ends); returns how many, and the boxes of the
+/// centroids that went left and right (each light is tested once).
+pub(super) fn partition(
+    prims: &mut [Prim],
+    goes_left: impl Fn(Vec3A) -> bool,
+) -> (usize, Aabb, Aabb) {
+    let (mut left, mut right) = (Aabb::EMPTY, Aabb::EMPTY);
+    let mut sorts_left = |p: &Prim| {
+        let c = p.centroid();
+        let is_left = goes_left(c);
+        if is_left {
+            left.grow(&Aabb::point(c));
+        } else {
+            right.grow(&Aabb::point(c));
+        }
+        is_left
+    };
     let (mut i, mut j) = (0, prims.len());
     loop {
-        while i < j && goes_left(&prims[i]) {
+        while i < j && sorts_left(&prims[i]) {
             i += 1;
         }
-        while i < j && !goes_left(&prims[j - 1]) {
+        while i < j && !sorts_left(&prims[j - 1]) {
             j -= 1;
         }
         if i + 1 >= j {
-            return i;
+            return (i, left, right);
         }
         prims.swap(i, j - 1);
         i += 1;
