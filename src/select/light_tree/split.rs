@@ -134,66 +134,91 @@ impl Aabb {
 }
 
 /// A set of lights as the split cost sees it: box, summed Φ (f64), count,
-/// the box holding their unit axes, and their widest θo and θe. Merging is
-/// component-wise, so runs of buckets or lights are cheap to accumulate.
+/// the box holding their unit axes, and their widest θo and θe, as four SIMD
+/// lanes each, cos θo and cos θe in the fourth lane of the lower corners
+/// (both keep their smallest). Merging is component-wise, so runs of buckets
+/// or lights are cheap to accumulate: adding a light is four min/max, a sum
+/// and a count.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Side {
-    pub(super) bounds: Aabb,
-    pub(super) axes: Aabb,
+    /// The box's lower corner; the smallest cos θo.
+    lo: Vec4,
+    /// The box's upper corner; the fourth lane (the largest Φ) is unused.
+    hi: Vec4,
+    /// The lower corner of the box holding the unit axes; the smallest cos θe.
+    axes_lo: Vec4,
+    /// The upper corner of that box; the fourth lane (the largest cos θe) is unused.
+    axes_hi: Vec4,
     pub(super) phi: f64,
     pub(super) count: u32,
-    pub(super) cos_o: f32,
-    pub(super) cos_e: f32,
 }
 
 impl Side {
     pub(super) const EMPTY: Side = Side {
-        bounds: Aabb::EMPTY,
-        axes: Aabb::EMPTY,
+        lo: Vec4::INFINITY,
+        hi: Vec4::NEG_INFINITY,
+        axes_lo: Vec4::INFINITY,
+        axes_hi: Vec4::NEG_INFINITY,
         phi: 0.0,
         count: 0,
-        cos_o: 1.0,
-        cos_e: 1.0,
     };
 
     pub(super) fn of(p: &Prim) -> Side {
-        Side {
-            bounds: p.aabb(),
-            axes: Aabb::point(p.w.into()),
-            phi: f64::from(p.phi),
-            count: 1,
-            cos_o: p.cos_o,
-            cos_e: p.cos_e,
-        }
+        let mut side = Side::EMPTY;
+        side.push(p);
+        side
+    }
+
+    /// Adds one light, in place.
+    #[inline(always)]
+    pub(super) fn push(&mut self, p: &Prim) {
+        let w = Vec4::new(p.w.x, p.w.y, p.w.z, p.cos_e);
+        self.lo = self.lo.min(Vec4::new(p.lo.x, p.lo.y, p.lo.z, p.cos_o));
+        self.hi = self.hi.max(Vec4::new(p.hi.x, p.hi.y, p.hi.z, p.phi));
+        self.axes_lo = self.axes_lo.min(w);
+        self.axes_hi = self.axes_hi.max(w);
+        self.phi += f64::from(p.phi);
+        self.count += 1;
     }
 
     /// Adds `other`'s lights, in place.
+    #[inline(always)]
     pub(super) fn add(&mut self, other: &Side) {
-        self.bounds.grow(&other.bounds);
-        self.axes.grow(&other.axes);
+        self.lo = self.lo.min(other.lo);
+        self.hi = self.hi.max(other.hi);
+        self.axes_lo = self.axes_lo.min(other.axes_lo);
+        self.axes_hi = self.axes_hi.max(other.axes_hi);
         self.phi += other.phi;
         self.count += other.count;
-        self.cos_o = self.cos_o.min(other.cos_o);
-        self.cos_e = self.cos_e.min(other.cos_e);
+    }
+
+    /// The lights' box.
+    pub(super) fn bounds(&self) -> Aabb {
+        Aabb {
+            lo: Vec3A::from_vec4(self.lo),
+            hi: Vec3A::from_vec4(self.hi),
+        }
     }
 
     /// Writes what this set's cost needs into entry `i` of `inputs`, Φ · area
     /// scaled by `scale`.
+    #[inline(always)]
     fn cost_inputs(&self, inputs: &mut CostInputs, i: usize, pad: f32, scale: f64) {
         let (a_sq, a_min) = if self.count == 1 {
             (1.0, 1.0)
         } else {
-            let a = self.axes.lo + self.axes.hi;
-            (
-                a.length_squared(),
-                (a * self.axes.lo).min(a * self.axes.hi).element_sum(),
-            )
+            let (lo, hi) = (
+                Vec3A::from_vec4(self.axes_lo),
+                Vec3A::from_vec4(self.axes_hi),
+            );
+            let a = lo + hi;
+            (a.length_squared(), (a * lo).min(a * hi).element_sum())
         };
-        inputs.phi_area[i] = (self.phi * self.bounds.padded_area(pad) * scale) as f32;
+        inputs.phi_area[i] = (self.phi * self.bounds().padded_area(pad) * scale) as f32;
         inputs.a_sq[i] = a_sq;
         inputs.a_min[i] = a_min;
-        inputs.cos_o[i] = self.cos_o;
-        inputs.cos_e[i] = self.cos_e;
+        inputs.cos_o[i] = self.lo.w;
+        inputs.cos_e[i] = self.axes_lo.w;
     }
 }
 
@@ -347,78 +372,6 @@ pub(super) fn cheapest_cut(
     best
 }
 
-/// Lights binned by centroid along one axis, summed as four SIMD lanes each
-/// so that adding a light is four min/max operations: the [`Side`] they make,
-/// with cos θo and cos θe carried in the fourth lane of the lower corners
-/// (both sets keep their smallest).
-#[derive(Clone, Copy, Debug)]
-pub(super) struct Bin {
-    /// The box's lower corner; the smallest cos θo.
-    lo: Vec4,
-    /// The box's upper corner; the fourth lane (the largest Φ) is unused.
-    hi: Vec4,
-    /// The lower corner of the box holding the unit axes; the smallest cos θe.
-    axes_lo: Vec4,
-    /// The upper corner of that box; the fourth lane (the largest cos θe) is unused.
-    axes_hi: Vec4,
-    phi: f64,
-    count: u32,
-}
-
-impl Bin {
-    pub(super) const EMPTY: Bin = Bin {
-        lo: Vec4::INFINITY,
-        hi: Vec4::NEG_INFINITY,
-        axes_lo: Vec4::INFINITY,
-        axes_hi: Vec4::NEG_INFINITY,
-        phi: 0.0,
-        count: 0,
-    };
-
-    /// Adds one light, whose (lo, cos θo), (hi, Φ) and (w, cos θe) are given.
-    #[inline(always)]
-    fn push(&mut self, lo: Vec4, hi: Vec4, w: Vec4, phi: f64) {
-        self.lo = self.lo.min(lo);
-        self.hi = self.hi.max(hi);
-        self.axes_lo = self.axes_lo.min(w);
-        self.axes_hi = self.axes_hi.max(w);
-        self.phi += phi;
-        self.count += 1;
-    }
-
-    /// Adds `other`'s lights, in place.
-    pub(super) fn add(&mut self, other: &Bin) {
-        self.lo = self.lo.min(other.lo);
-        self.hi = self.hi.max(other.hi);
-        self.axes_lo = self.axes_lo.min(other.axes_lo);
-        self.axes_hi = self.axes_hi.max(other.axes_hi);
-        self.phi += other.phi;
-        self.count += other.count;
-    }
-
-    /// The bucket's lights as a [`Side`] (the same numbers as adding their
-    /// [`Side::of`] one by one, in order, to [`Side::EMPTY`]).
-    pub(super) fn side(&self) -> Side {
-        if self.count == 0 {
-            return Side::EMPTY;
-        }
-        Side {
-            bounds: Aabb {
-                lo: Vec3A::from_vec4(self.lo),
-                hi: Vec3A::from_vec4(self.hi),
-            },
-            axes: Aabb {
-                lo: Vec3A::from_vec4(self.axes_lo),
-                hi: Vec3A::from_vec4(self.axes_hi),
-            },
-            phi: self.phi,
-            count: self.count,
-            cos_o: self.lo.w,
-            cos_e: self.axes_lo.w,
-        }
-    }
-}
-
 /// Maps centroids to buckets along the axes where their box has extent.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Binner {
@@ -456,7 +409,7 @@ impl Binner {
 
     /// Bins the lights along every active axis, in one pass (halves of
     /// large sets binned in parallel).
-    pub(super) fn bin(&self, prims: &[Prim]) -> [[Bin; BUCKETS]; 3] {
+    pub(super) fn bin(&self, prims: &[Prim]) -> [[Side; BUCKETS]; 3] {
         if prims.len() >= PARALLEL_BINNING_MIN {
             let (a, b) = prims.split_at(prims.len() / 2);
             let (mut bins, other) = rayon::join(|| self.bin(a), || self.bin(b));
@@ -465,16 +418,12 @@ impl Binner {
             }
             return bins;
         }
-        let mut bins = [[Bin::EMPTY; BUCKETS]; 3];
+        let mut bins = [[Side::EMPTY; BUCKETS]; 3];
         for p in prims {
             let buckets = self.buckets(p.centroid());
-            let lo = Vec4::new(p.lo.x, p.lo.y, p.lo.z, p.cos_o);
-            let hi = Vec4::new(p.hi.x, p.hi.y, p.hi.z, p.phi);
-            let w = Vec4::new(p.w.x, p.w.y, p.w.z, p.cos_e);
-            let phi = f64::from(p.phi);
             for (axis, row) in bins.iter_mut().enumerate() {
                 if self.active[axis] {
-                    row[buckets[axis]].push(lo, hi, w, phi);
+                    row[buckets[axis]].push(p);
                 }
             }
         }
@@ -512,13 +461,14 @@ pub(super) fn choose_split(prims: &mut [Prim], centroids: Aabb) -> Split {
 /// padding for [`Aabb::padded_area`] and the `scale` of [`cheapest_cut`], from
 /// the node's lights.
 pub(super) fn axis_weights(node: &Side) -> ([f64; 3], f32, f64) {
-    let extent = node.bounds.extent();
+    let bounds = node.bounds();
+    let extent = bounds.extent();
     let largest = extent.max_element();
     let pad = 1e-3 * largest;
     (
         [0, 1, 2].map(|k| f64::from(largest / extent[k])),
         pad,
-        1.0 / (node.phi * node.bounds.padded_area(pad)),
+        1.0 / (node.phi * bounds.padded_area(pad)),
     )
 }
 
@@ -528,7 +478,7 @@ pub(super) fn binned_split(prims: &mut [Prim], centroids: Aabb) -> Option<Split>
     let bins = binner.bin(prims);
     let row = bins.iter().zip(binner.active).find(|(_, a)| *a)?.0;
     let mut node = Side::EMPTY;
-    row.iter().for_each(|bin| node.add(&bin.side()));
+    row.iter().for_each(|bin| node.add(bin));
     let (kr, pad, scale) = axis_weights(&node);
     let mut best: Option<(f64, usize, usize)> = None;
     for (axis, row) in bins
@@ -536,7 +486,7 @@ pub(super) fn binned_split(prims: &mut [Prim], centroids: Aabb) -> Option<Split>
         .enumerate()
         .filter(|(axis, _)| binner.active[*axis])
     {
-        if let Some((cost, cut)) = cheapest_cut(BUCKETS, |k| row[k].side(), pad, scale) {
+        if let Some((cost, cut)) = cheapest_cut(BUCKETS, |k| row[k], pad, scale) {
             let cost = kr[axis] * f64::from(cost);
             if best.is_none_or(|b| cost < b.0) {
                 best = Some((cost, axis, cut));
@@ -555,10 +505,11 @@ pub(super) fn binned_split(prims: &mut [Prim], centroids: Aabb) -> Option<Split>
 /// `cargo bench --bench selection_quality`'s bvh χ² within 0.3%).
 pub(super) fn small_split(prims: &mut [Prim], centroids: Aabb) -> Option<Split> {
     let n = prims.len();
-    let sides: [Side; SMALL_NODE] =
-        std::array::from_fn(|k| prims.get(k).map_or(Side::EMPTY, Side::of));
-    let keys: [Vec3A; SMALL_NODE] =
-        std::array::from_fn(|k| sides[k].bounds.lo + sides[k].bounds.hi);
+    let keys: [Vec3A; SMALL_NODE] = std::array::from_fn(|k| {
+        prims
+            .get(k)
+            .map_or(Vec3A::ZERO, |p| Vec3A::from(p.lo) + Vec3A::from(p.hi))
+    });
     let spread = keys[..n]
         .iter()
         .fold(Aabb::EMPTY, |b, &k| b.merge(&Aabb::point(k)))
@@ -570,12 +521,17 @@ pub(super) fn small_split(prims: &mut [Prim], centroids: Aabb) -> Option<Split> 
     let mid = if n <= TINY_NODE {
         n / 2
     } else {
+        let sides: [Side; SMALL_NODE] =
+            std::array::from_fn(|k| prims.get(k).map_or(Side::EMPTY, Side::of));
         let mut node = Side::EMPTY;
-        sides.iter().for_each(|side| node.add(side));
+        sides[..n].iter().for_each(|side| node.add(side));
         let (_, pad, scale) = axis_weights(&node);
         cheapest_cut(n, |k| sides[usize::from(order[k])], pad, scale)?.1
     };
-    let sorted: [Prim; SMALL_NODE] = std::array::from_fn(|k| prims[usize::from(order[k])]);
+    let mut sorted = [Prim::LEFT_OUT; SMALL_NODE];
+    for (slot, &k) in sorted.iter_mut().zip(&order[..n]) {
+        *slot = prims[usize::from(k)];
+    }
     prims.copy_from_slice(&sorted[..n]);
     Some(Split {
         mid,
