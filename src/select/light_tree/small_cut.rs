@@ -19,10 +19,12 @@ pub(super) const SMALL_SUBTREE: usize = 16;
 /// node more (its own); opened into fewer than `lanes` lanes it costs at least as much as
 /// kept whole.
 /// So the two numbers describe every choice: kept (1 lane) or opened (`lanes` lanes).
+/// `opened` records which of an interior node's children that cut opens.
 #[derive(Clone, Copy, Debug, Default)]
 struct Fewest {
     nodes: u32,
     lanes: u8,
+    opened: [bool; 2],
 }
 
 /// [`Fewest`] of every binary node of one small subtree (depth-first: node `root + i` at i).
@@ -41,10 +43,18 @@ impl Table {
         for i in (0..2 * root.count - 1).rev() {
             let index = root.index + i;
             table.fewest[i] = if binary[index].is_leaf() {
-                Fewest { nodes: 0, lanes: 1 }
+                Fewest {
+                    nodes: 0,
+                    lanes: 1,
+                    opened: [false; 2],
+                }
             } else {
-                let (nodes, lanes, _) = table.best_split(binary, index);
-                Fewest { nodes, lanes }
+                let (nodes, lanes, opened) = table.best_split(binary, index);
+                Fewest {
+                    nodes,
+                    lanes,
+                    opened,
+                }
             };
         }
         table
@@ -94,7 +104,7 @@ impl Table {
     }
 
     /// Appends to `lanes` (from `used` on) the cut [`best_split`](Self::best_split) chose for
-    /// interior lane `lane`, left to right.
+    /// interior lane `lane` (kept in the table), left to right.
     fn cut(
         &self,
         binary: &[Node],
@@ -103,7 +113,7 @@ impl Table {
         used: &mut usize,
     ) {
         let (left, right) = halves(binary, lane);
-        let (_, _, opened) = self.best_split(binary, lane.index);
+        let opened = self.get(lane.index).opened;
         for (half, opened) in [(left, opened[0]), (right, opened[1])] {
             if opened && !binary[half.index].is_leaf() {
                 self.cut(binary, half, lanes, used);
