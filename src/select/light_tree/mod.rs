@@ -27,7 +27,8 @@
 //!   leaves, subtrees of ≤ 16 lights by the cut with the fewest nodes), each child's bounds
 //!   coded again in 16-bit fields relative to its node (bounding sphere on the
 //!   node's grid, cone axis, cosines; Φ as a bfloat16; the power centre as 8-bit
-//!   offsets within the sphere), 256 bytes a node, decoded to
+//!   offsets within the sphere and the lights' spread about it in 4 bits), 256
+//!   bytes a node, decoded to
 //!   f32 lanes as a node is evaluated. A lane keeps
 //!   the first light id of its range, so `pmf` finds the lane holding a light
 //!   without parent links or per-light bit trails. Quantisation can cost

@@ -282,3 +282,18 @@ pub(super) fn encode_offset(offset: DVec3, radius: f32) -> [i8; 3] {
             .clamp(-f64::from(OFFSET_MAX), f64::from(OFFSET_MAX)) as i8
     })
 }
+
+/// Largest spread code (four bits): a spread of one radius.
+pub(super) const SPREAD_MAX: f32 = 15.0;
+
+/// A lane's spread `sigma` in steps of `radius` / 15, rounded to nearest, clamped to one radius
+/// (which it never exceeds: the power centre minimises the Φ-weighted mean square distance, and
+/// from the sphere's centre every box centre is within one radius); 0 for a radius of 0.
+pub(super) fn encode_spread(sigma: f64, radius: f32) -> u8 {
+    if radius <= 0.0 {
+        return 0;
+    }
+    (sigma / f64::from(radius) * f64::from(SPREAD_MAX))
+        .round()
+        .clamp(0.0, f64::from(SPREAD_MAX)) as u8
+}

@@ -50,6 +50,10 @@ pub(super) struct WideNode {
     /// The lane's power centre (its lights' box centres weighted by Φ) relative to its sphere:
     /// centre + code · radius / [`OFFSET_MAX`], axis by axis.
     pub(super) power_centre: [[i8; LANES]; 3],
+    /// The spread σ of the lane's lights (RMS distance of their box centres from the power
+    /// centre) in steps of radius / [`SPREAD_MAX`], four bits a lane: lane k in byte k / 2,
+    /// low nibble for even k.
+    pub(super) spread: [u8; LANES / 2],
     /// First light id of the lane's range ([`EMPTY_LANE`] if unused); a single light's id.
     pub(super) first: [u32; LANES],
     pub(super) origin: [f32; 3],
@@ -75,6 +79,7 @@ impl WideNode {
             cos_e: [COS_MAX as u16; LANES],
             phi: [0; LANES],
             power_centre: [[0; LANES]; 3],
+            spread: [0; LANES / 2],
             first: [EMPTY_LANE; LANES],
             origin: [0.0; 3],
             step: [0.0; 3],
@@ -133,14 +138,14 @@ impl WideNode {
             }
             node.radius[k] = encode_radius(*radius, radius_step);
             let sphere_centre = centres.decode(*centre).as_dvec3();
-            let power = power_centre(&points[lane.first..lane.first + lane.count]);
-            let offset = encode_offset(
-                power - sphere_centre,
-                f32::from(node.radius[k]) * radius_step,
-            );
+            let (power, spread) =
+                power_moments(&points[lane.first..lane.first + lane.count], sphere_centre);
+            let coded_radius = f32::from(node.radius[k]) * radius_step;
+            let offset = encode_offset(power - sphere_centre, coded_radius);
             for (field, code) in node.power_centre.iter_mut().zip(offset) {
                 field[k] = code;
             }
+            node.spread[k / 2] |= encode_spread(spread, coded_radius) << (4 * (k % 2));
             let (axis, cos_o) = encode_axis(b.w, b.cos_theta_o);
             for (field, code) in node.axis.iter_mut().zip(axis) {
                 field[k] = code;
@@ -250,25 +255,31 @@ pub(super) struct PowerPoint {
     pub(super) phi: f32,
 }
 
-/// Above this many lights a lane's power centre is summed in parallel.
+/// Above this many lights a lane's power moments are summed in parallel.
 const PARALLEL_POWER_MIN: usize = 1 << 16;
 
-/// Σ Φ_i x_i / Σ Φ_i over `points` (in f64).
-fn power_centre(points: &[PowerPoint]) -> DVec3 {
-    let add = |(sum, phi): (DVec3, f64), p: &PowerPoint| {
+/// The power centre c = Σ Φ_i x_i / Σ Φ_i of `points` and their spread about it, the RMS
+/// distance σ = (Σ Φ_i |x_i − c|² / Σ Φ_i)^½, summed in f64 relative to `origin` (a point
+/// near them: the lane's sphere centre) so that σ² = E|x − o|² − |c − o|² keeps its digits far
+/// from the world's origin.
+fn power_moments(points: &[PowerPoint], origin: DVec3) -> (DVec3, f64) {
+    let add = |(first, second, phi): (DVec3, f64, f64), p: &PowerPoint| {
         let w = f64::from(p.phi);
-        (sum + p.position.as_dvec3() * w, phi + w)
+        let x = p.position.as_dvec3() - origin;
+        (first + x * w, second + x.length_squared() * w, phi + w)
     };
-    let merge = |a: (DVec3, f64), b: (DVec3, f64)| (a.0 + b.0, a.1 + b.1);
-    let (sum, phi) = if points.len() >= PARALLEL_POWER_MIN {
-        points
-            .par_iter()
-            .fold(|| (DVec3::ZERO, 0.0), add)
-            .reduce(|| (DVec3::ZERO, 0.0), merge)
+    let merge = |a: (DVec3, f64, f64), b: (DVec3, f64, f64)| (a.0 + b.0, a.1 + b.1, a.2 + b.2);
+    let zero = || (DVec3::ZERO, 0.0, 0.0);
+    let (first, second, phi) = if points.len() >= PARALLEL_POWER_MIN {
+        points.par_iter().fold(zero, add).reduce(zero, merge)
     } else {
-        points.iter().fold((DVec3::ZERO, 0.0), add)
+        points.iter().fold(zero(), add)
     };
-    sum / phi
+    let mean = first / phi;
+    (
+        origin + mean,
+        (second / phi - mean.length_squared()).max(0.0).sqrt(),
+    )
 }
 
 /// The interior lanes among `lanes`, in lane order.

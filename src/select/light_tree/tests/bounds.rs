@@ -121,11 +121,13 @@ fn cone_union_holds_both_cones() {
 
 /// The importance written with angles (acos, asin) in f64 from the formula in
 /// `lanes`' header, for comparison with the lanes' (cos, sin) arithmetic, the
-/// distance term measured from `power_centre`; `None` near a threshold.
+/// distance term measured from `power_centre` and shortened by `spread_sq` (σ²); `None` near a
+/// threshold.
 fn importance_with_angles(
     b: &LightBounds,
     radius: f32,
     power_centre: Vec3,
+    spread_sq: f32,
     p: Vec3,
     n: Vec3,
 ) -> Option<f64> {
@@ -136,7 +138,7 @@ fn importance_with_angles(
     if (d - r).abs() < 1e-3 * r.max(1e-3) || (d - 0.25 * r).abs() < 1e-3 * r.max(1e-3) {
         return None;
     }
-    let (share, inside_floor) = (0.1, 0.5);
+    let (share, inside_floor) = (0.1, 0.25);
     // The lanes read the coded cone axis w' as it is (|w'| within 1.5e-5 of 1, θo
     // widened for that): cos θw = w'·d for the unit direction d from the centre to p.
     let cos_w = b.w.as_dvec3().dot((p - centre).normalize());
@@ -183,9 +185,10 @@ fn importance_with_angles(
     } else {
         received.max(f64::from(COS_SLACK))
     };
-    let d_sq = p
-        .distance_squared(power_centre.as_dvec3())
-        .max(0.25 * r * r);
+    let spread_sq = f64::from(spread_sq);
+    let d_sq = (p.distance_squared(power_centre.as_dvec3()) - 1.5 * spread_sq)
+        .max(0.05 * r * r)
+        .max(0.5 * spread_sq);
     Some(f64::from(b.phi) * emitted * received / d_sq)
 }
 
@@ -214,7 +217,9 @@ fn lane_importance_matches_the_bound_written_with_angles() {
                     two_sided: phi < 0.0,
                 };
                 let radius = decoded.radius[k];
-                let Some(expected) = importance_with_angles(&b, radius, power_centre, p, n) else {
+                let Some(expected) =
+                    importance_with_angles(&b, radius, power_centre, decoded.spread_sq[k], p, n)
+                else {
                     continue;
                 };
                 let got = f64::from(lanes[k]);
@@ -323,7 +328,7 @@ fn wide_lanes_hold_their_lights() {
 }
 
 #[test]
-fn lanes_know_their_power_centre_and_power() {
+fn lanes_know_their_power_centre_spread_and_power() {
     let mut rng = Rand::new(13);
     let mut checked = 0;
     for (scale, offset) in [(1e-4, 0.0), (1.0, 0.0), (1e6, 0.0), (1.0, 1e6)] {
@@ -338,8 +343,9 @@ fn lanes_know_their_power_centre_and_power() {
             })
             .collect();
         let (bvh, order) = LightBvh::build(&lights);
-        // Σ Φ·(box centre) and Σ Φ of every lane, gathered light by light along its path.
-        let mut sums: std::collections::HashMap<(usize, usize), (DVec3, f64)> = Default::default();
+        // (box centre, Φ) of every light of every lane, gathered light by light along its path.
+        let mut members: std::collections::HashMap<(usize, usize), Vec<(DVec3, f64)>> =
+            Default::default();
         for (id, &original) in order.iter().enumerate() {
             let light = &lights[original as usize];
             let centre = (light.lo.min(light.hi) + light.lo.max(light.hi)).as_dvec3() * 0.5;
@@ -348,8 +354,7 @@ fn lanes_know_their_power_centre_and_power() {
             loop {
                 let node = &bvh.nodes[index];
                 let k = node.lane_of(id as u32).expect("a lane holds every light");
-                let sum = sums.entry((index, k)).or_default();
-                *sum = (sum.0 + centre * phi, sum.1 + phi);
+                members.entry((index, k)).or_default().push((centre, phi));
                 let child = node.child(k);
                 if child & LIGHT_LANE != 0 {
                     break;
@@ -357,9 +362,10 @@ fn lanes_know_their_power_centre_and_power() {
                 index = child as usize;
             }
         }
-        for (&(index, k), &(weighted, phi)) in &sums {
+        for (&(index, k), lane) in &members {
             let lanes = Decoded::of(&bvh.nodes[index]);
-            let expected = weighted / phi;
+            let phi: f64 = lane.iter().map(|&(_, w)| w).sum();
+            let expected = lane.iter().map(|&(x, w)| x * w).sum::<DVec3>() / phi;
             let got = DVec3::from_array(lanes.power_centre.map(|c| f64::from(c[k])));
             // Offsets are coded in steps of r/127 (half a step off at most), then decoded in f32.
             let r = f64::from(lanes.radius[k]);
@@ -367,6 +373,18 @@ fn lanes_know_their_power_centre_and_power() {
             assert!(
                 (got - expected).abs().max_element() <= slack,
                 "node {index} lane {k}: power centre {got} vs {expected} (r {r})"
+            );
+            // The spread, in two passes about the centre: coded in steps of r/15.
+            let spread = (lane
+                .iter()
+                .map(|&(x, w)| (x - expected).length_squared() * w)
+                .sum::<f64>()
+                / phi)
+                .sqrt();
+            let coded_spread = f64::from(lanes.spread_sq[k]).sqrt();
+            assert!(
+                (coded_spread - spread).abs() <= r / 30.0 * (1.0 + 1e-4) + slack - r / 254.0,
+                "node {index} lane {k}: spread {coded_spread} vs {spread} (r {r})"
             );
             let coded = f64::from(lanes.signed_phi[k].abs());
             assert!(
