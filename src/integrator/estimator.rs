@@ -69,6 +69,8 @@ pub struct Estimator<'a> {
     pub lights: &'a Lights,
     /// None when the scene has no lights.
     pub selector: Option<&'a LightSelector>,
+    /// `Brdf::new` of each of the scene's materials.
+    pub brdfs: &'a [Brdf],
     pub strategy: Strategy,
     pub k: u32,
     pub n: u32,
@@ -206,10 +208,17 @@ impl Estimator<'_> {
         // normals disagree with its winding.
         let ns = (b0 * n0 + hit.b1 * n1 + hit.b2 * n2).normalize_or(ng);
         let ns = if ns.dot(ng) < 0.0 { -ns } else { ns };
-        let base_color = self
-            .scene
-            .base_color_at(hit.triangle as usize, hit.b1, hit.b2);
-        let brdf = Brdf::with_base_color(&self.scene.materials[tri.material as usize], base_color);
+        let material = &self.scene.materials[tri.material as usize];
+        // An untextured base colour is the material's factor: its BRDF is built once.
+        let brdf = match material.base_color_texture {
+            None => self.brdfs[tri.material as usize],
+            Some(_) => {
+                let base_color = self
+                    .scene
+                    .base_color_at(hit.triangle as usize, hit.b1, hit.b2);
+                Brdf::with_base_color(material, base_color)
+            }
+        };
         ShadingPoint {
             p,
             ng,

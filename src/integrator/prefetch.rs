@@ -3,8 +3,8 @@
 //! dependent cache misses per camera sample, taken one sample after another when each sample is
 //! shaded in turn. Making a packet's choices ahead of its camera rays' traversal, and asking
 //! only for those lines to be loaded, lets the misses of all its samples overlap with each
-//! other and with the traversal. The choice is made again, identically, when each sample is
-//! shaded: this pass changes no result.
+//! other and with the traversal. The number that makes each slot-0 choice is kept in its sample
+//! for the shading, which makes the choice again, identically: this pass changes no result.
 //! The triangles a packet's camera rays hit are asked for the same way, between its traversal
 //! and its shading.
 
@@ -18,8 +18,10 @@ use crate::select::LightSelector;
 impl Estimator<'_> {
     /// Starts loading the bins and lights that the K light choices of each of `samples` read,
     /// where the selector's choice does not depend on the shading point (the power selector's
-    /// alias table) and the strategy draws one light per slot from `light_choice`.
-    pub fn prefetch_lights(&self, samples: &[CameraSample]) {
+    /// alias table) and the strategy draws one light per slot from `light_choice`. Each
+    /// sample's slot-0 choice is then kept in it (`with_first_light_choice`), so that this pass
+    /// and the shading compute it once.
+    pub fn prefetch_lights(&self, samples: &mut [CameraSample]) {
         let Some(LightSelector::Power(table)) = self.selector else {
             return;
         };
@@ -31,12 +33,13 @@ impl Estimator<'_> {
         }
         // First every sample's first bin, so that the second pass's reads of them (each
         // followed by an unpredictable branch) find their lines on the way.
-        for cs in samples {
+        for cs in samples.iter_mut() {
+            *cs = cs.with_first_light_choice();
             for slot in 0..self.k {
                 table.prefetch_sample(cs.light_choice(slot));
             }
         }
-        for cs in samples {
+        for cs in samples.iter() {
             for slot in 0..self.k {
                 let l = table.sample(cs.light_choice(slot));
                 table.prefetch(l);

@@ -6,6 +6,7 @@ use std::time::Instant;
 use super::{Estimator, Strategy};
 use crate::accel::Accel;
 use crate::lights::Lights;
+use crate::material::Brdf;
 use crate::scene::memory::lights_before_geometry;
 use crate::scene::Scene;
 use crate::select::{LightSelector, SelectorKind};
@@ -16,6 +17,9 @@ pub struct PreparedScene {
     pub lights: Lights,
     /// None when the scene has no lights.
     pub selector: Option<LightSelector>,
+    /// Each material's BRDF with its base colour factor (the whole BRDF where it is not
+    /// textured).
+    pub brdfs: Vec<Brdf>,
     /// Seconds spent building the BVH over triangles.
     pub bvh_seconds: f64,
     /// Seconds spent building the lights and the selector.
@@ -45,11 +49,13 @@ impl PreparedScene {
                 let accel = build_accel(&scene);
                 (accel, build_lights(&scene))
             };
+        let brdfs = scene.materials.iter().map(Brdf::new).collect();
         PreparedScene {
             scene,
             accel,
             lights,
             selector,
+            brdfs,
             bvh_seconds,
             light_seconds,
         }
@@ -63,6 +69,7 @@ impl PreparedScene {
             accel: &self.accel,
             lights: &self.lights,
             selector: self.selector.as_ref(),
+            brdfs: &self.brdfs,
             strategy,
             k,
             n,

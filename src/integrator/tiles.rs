@@ -10,7 +10,7 @@ use crate::accel::PACKET;
 use crate::color::luminance;
 use crate::film::{classify, Film, PixelStats, SampleClass};
 use crate::sampling::sampler::{CameraSample, PixelSampler, Sampler, SamplerKind};
-use crate::scene::Camera;
+use crate::scene::{Camera, CameraRays};
 
 const TILE: u32 = 16;
 
@@ -93,9 +93,10 @@ pub fn render(estimator: &Estimator, camera: &Camera, opts: &RenderOptions) -> (
         estimator.k,
         estimator.n,
     );
+    let camera = camera.rays(w, h);
     let rendered: Vec<(Vec<PixelStats>, RenderStats)> = tiles
         .par_iter()
-        .map(|&(tx, ty)| render_tile(estimator, camera, opts, &sampler, tx, ty))
+        .map(|&(tx, ty)| render_tile(estimator, &camera, opts, &sampler, tx, ty))
         .collect();
 
     let mut film = Film {
@@ -118,7 +119,7 @@ pub fn render(estimator: &Estimator, camera: &Camera, opts: &RenderOptions) -> (
 
 fn render_tile(
     estimator: &Estimator,
-    camera: &Camera,
+    camera: &CameraRays,
     opts: &RenderOptions,
     sampler: &Sampler,
     tx: u32,
@@ -148,9 +149,9 @@ fn render_tile(
                 });
                 let rays: [(Vec3, Vec3); PACKET] = std::array::from_fn(|i| {
                     let [jx, jy] = samples[i].pixel_jitter();
-                    camera.ray(x as f32 + jx, y as f32 + jy, w, h)
+                    camera.ray(x as f32 + jx, y as f32 + jy)
                 });
-                tile.shade(estimator, opts, &samples, &rays, count, 0);
+                tile.shade(estimator, opts, samples, &rays, count, 0);
             }
             tile.end_pixel();
         }
@@ -178,10 +179,10 @@ fn render_tile(
             let rays: [(Vec3, Vec3); PACKET] = std::array::from_fn(|i| {
                 let (x, y) = run[slot(i).0];
                 let [jx, jy] = samples[i].pixel_jitter();
-                camera.ray(x as f32 + jx, y as f32 + jy, w, h)
+                camera.ray(x as f32 + jx, y as f32 + jy)
             });
             let last_of_pixel = (1..=run.len()).fold(0, |mask, p| mask | 1 << (p * spp - 1));
-            tile.shade(estimator, opts, &samples, &rays, count, last_of_pixel);
+            tile.shade(estimator, opts, samples, &rays, count, last_of_pixel);
         }
     } else {
         tile.pixels.resize(pixels.len(), PixelStats::default());
@@ -207,13 +208,13 @@ impl TileSums {
         &mut self,
         estimator: &Estimator,
         opts: &RenderOptions,
-        samples: &[CameraSample; PACKET],
+        mut samples: [CameraSample; PACKET],
         rays: &[(Vec3, Vec3); PACKET],
         count: usize,
         last_of_pixel: u32,
     ) {
         // The light choices' cache misses overlap the camera rays' traversal.
-        estimator.prefetch_lights(&samples[..count]);
+        estimator.prefetch_lights(&mut samples[..count]);
         let mut hits = [None; PACKET];
         estimator
             .accel

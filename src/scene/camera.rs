@@ -130,23 +130,28 @@ impl Camera {
     }
 
     /// The world-space ray (origin, unit direction) through image position (x, y) in pixels
-    /// (x right, y down).
+    /// (x right, y down); see [`CameraRays::ray`], which a loop over many rays should use.
     #[inline]
     pub fn ray(&self, x: f32, y: f32, width: u32, height: u32) -> (Vec3, Vec3) {
-        let aspect = width as f32 / height as f32;
-        match self.projection {
-            Projection::Perspective { yfov } => {
-                let tan_half = (0.5 * yfov).tan();
-                let sx = (2.0 * x / width as f32 - 1.0) * tan_half * aspect;
-                let sy = (1.0 - 2.0 * y / height as f32) * tan_half;
-                let dir = (self.right * sx + self.up * sy + self.forward).normalize();
-                (self.position, dir)
-            }
-            Projection::Orthographic { ymag } => {
-                let sx = (2.0 * x / width as f32 - 1.0) * ymag * aspect;
-                let sy = (1.0 - 2.0 * y / height as f32) * ymag;
-                (self.position + self.right * sx + self.up * sy, self.forward)
-            }
+        self.rays(width, height).ray(x, y)
+    }
+
+    /// The rays of a `width` × `height` image, with tan(yfov/2) (or ymag) and W/H computed once.
+    pub fn rays(&self, width: u32, height: u32) -> CameraRays {
+        let (half_height, perspective) = match self.projection {
+            Projection::Perspective { yfov } => ((0.5 * yfov).tan(), true),
+            Projection::Orthographic { ymag } => (ymag, false),
+        };
+        CameraRays {
+            position: self.position,
+            right: self.right,
+            up: self.up,
+            forward: self.forward,
+            width: width as f32,
+            height: height as f32,
+            aspect: width as f32 / height as f32,
+            half_height,
+            perspective,
         }
     }
 
@@ -176,6 +181,40 @@ impl Camera {
     }
 }
 
+/// A camera's rays for one image size: the per-image factors of the screen mapping
+/// (see the module doc) computed once, each ray the same f32 operations on the same values as
+/// computing them per ray.
+#[derive(Clone, Copy, Debug)]
+pub struct CameraRays {
+    position: Vec3,
+    right: Vec3,
+    up: Vec3,
+    forward: Vec3,
+    width: f32,
+    height: f32,
+    /// W/H.
+    aspect: f32,
+    /// tan(yfov/2) for a perspective camera, ymag for an orthographic one.
+    half_height: f32,
+    perspective: bool,
+}
+
+impl CameraRays {
+    /// The world-space ray (origin, unit direction) through image position (x, y) in pixels
+    /// (x right, y down).
+    #[inline]
+    pub fn ray(&self, x: f32, y: f32) -> (Vec3, Vec3) {
+        let sx = (2.0 * x / self.width - 1.0) * self.half_height * self.aspect;
+        let sy = (1.0 - 2.0 * y / self.height) * self.half_height;
+        if self.perspective {
+            let dir = (self.right * sx + self.up * sy + self.forward).normalize();
+            (self.position, dir)
+        } else {
+            (self.position + self.right * sx + self.up * sy, self.forward)
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -198,6 +237,46 @@ mod tests {
         );
         let right = direction(&cam, 200.0, 50.0, 200, 100);
         assert!((right.x / -right.z - 2.0 * 0.5f32.tan()).abs() < 1e-5);
+    }
+
+    /// The per-image factors computed once give, bit for bit, the rays of the screen mapping
+    /// evaluated in full for each ray, for both projections.
+    #[test]
+    fn rays_of_an_image_equal_the_mapping_per_ray() {
+        let world = Mat4::from_translation(Vec3::new(1.0, -2.0, 0.5))
+            * Mat4::from_rotation_y(0.7)
+            * Mat4::from_rotation_x(-0.3);
+        let perspective = Camera::from_world_matrix("p".into(), &world, 0.9, None).unwrap();
+        let orthographic = Camera::orthographic("o".into(), &world, 3.0, 1.25).unwrap();
+        let (w, h) = (317u32, 211u32);
+        for cam in [perspective, orthographic] {
+            let rays = cam.rays(w, h);
+            for (x, y) in [
+                (0.0f32, 0.0f32),
+                (158.37, 105.5),
+                (316.999, 210.01),
+                (3.25, 199.9),
+            ] {
+                let aspect = w as f32 / h as f32;
+                let expected = match cam.projection {
+                    Projection::Perspective { yfov } => {
+                        let t = (0.5 * yfov).tan();
+                        let sx = (2.0 * x / w as f32 - 1.0) * t * aspect;
+                        let sy = (1.0 - 2.0 * y / h as f32) * t;
+                        let d = (cam.right * sx + cam.up * sy + cam.forward).normalize();
+                        (cam.position, d)
+                    }
+                    Projection::Orthographic { ymag } => {
+                        let sx = (2.0 * x / w as f32 - 1.0) * ymag * aspect;
+                        let sy = (1.0 - 2.0 * y / h as f32) * ymag;
+                        (cam.position + cam.right * sx + cam.up * sy, cam.forward)
+                    }
+                };
+                let (o, d) = rays.ray(x, y);
+                let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+                assert_eq!((bits(o), bits(d)), (bits(expected.0), bits(expected.1)));
+            }
+        }
     }
 
     /// An orthographic camera at (1, 2, 3) looking down −X (turned +90° about Y): every ray

@@ -16,7 +16,7 @@ pub mod memory;
 pub mod texture;
 pub mod texture_decode;
 
-pub use camera::{Camera, Projection};
+pub use camera::{Camera, CameraRays, Projection};
 pub use environment::{EnvironmentError, EnvironmentImage};
 pub use gltf_load::{
     load_gltf, load_gltf_allowing, load_gltf_bytes, load_gltf_bytes_allowing, read_scene_file,

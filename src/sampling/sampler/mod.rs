@@ -147,6 +147,7 @@ impl PixelSampler {
         CameraSample {
             pixel: self,
             s: s as u64,
+            first_light_choice: None,
         }
     }
 
@@ -202,6 +203,8 @@ impl PixelSampler {
 pub struct CameraSample<'a> {
     pixel: &'a PixelSampler,
     s: u64,
+    /// `light_choice(0)`, when computed ahead by `with_first_light_choice`.
+    first_light_choice: Option<f64>,
 }
 
 /// A fraction of 2^32 as an f32 in [0, 1) with 24 bits (never 1.0).
@@ -218,9 +221,27 @@ impl CameraSample<'_> {
         self.pixel.get_2d(&p).map(to_f32)
     }
 
+    /// This sample with light slot 0's choice computed once, for a caller that reads it more
+    /// than once (a light prefetched before it is shaded): `light_choice(0)` then returns it.
+    #[inline]
+    pub fn with_first_light_choice(self) -> Self {
+        CameraSample {
+            first_light_choice: Some(self.compute_light_choice(0)),
+            ..self
+        }
+    }
+
     /// The number that chooses light slot k's light, in [0, 1) with 53 bits.
     #[inline]
     pub fn light_choice(&self, k: u32) -> f64 {
+        match self.first_light_choice {
+            Some(u) if k == 0 => u,
+            _ => self.compute_light_choice(k),
+        }
+    }
+
+    #[inline]
+    fn compute_light_choice(&self, k: u32) -> f64 {
         const TO_UNIT: f64 = 1.0 / 9_007_199_254_740_992.0;
         let sm = &self.pixel.sampler;
         if sm.kind == SamplerKind::Independent {
