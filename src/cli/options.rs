@@ -157,6 +157,7 @@ impl RenderOptionsArgs {
     /// The scene with its camera, resolution, punctual-light units, external-file policy and
     /// `--env` map, as every command that renders sets it up.
     pub fn scene_setup(&self) -> anyhow::Result<crate::measure::SceneSetup> {
+        self.check_given_resolution()?;
         Ok(crate::measure::SceneSetup::load_allowing(
             &self.scene,
             self.camera.as_ref(),
@@ -166,6 +167,14 @@ impl RenderOptionsArgs {
         )?
         .with_punctual_units(self.punctual_units)
         .with_environment(self.environment()?))
+    }
+
+    /// Refuses a --width × --height over [`MAX_PIXELS`] before the scene is read, when both are
+    /// given (a derived height is checked once the camera is known), so that such a request is a
+    /// usage error whatever memory the machine has, not a memory-budget refusal of its film.
+    pub fn check_given_resolution(&self) -> Result<(), UsageError> {
+        self.height
+            .map_or(Ok(()), |height| check_resolution(self.width, height))
     }
 
     /// External folders and the memory budget: `--max-memory`, else the memory available

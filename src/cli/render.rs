@@ -123,6 +123,7 @@ fn render_scene(
 ) -> anyhow::Result<RenderSummary> {
     let o = &args.options;
     let mut seconds = Timings::default();
+    o.check_given_resolution()?;
     let t = Instant::now();
     let scene = load_gltf_allowing(
         &o.scene,

@@ -165,6 +165,18 @@ fn malformed_option_values_are_usage_errors_refused_before_any_work() {
         ),
         (render(&["--height", "0"]), EXIT_USAGE, vec!["--height"]),
         (render(&huge), EXIT_USAGE, vec!["268435456 pixels"]),
+        // Refused for its size before the scene's memory is estimated: the same usage error
+        // on a machine with little memory as on one with much.
+        (
+            render(&[&huge[..], &["--max-memory", "64M"]].concat()),
+            EXIT_USAGE,
+            vec!["268435456 pixels"],
+        ),
+        (
+            bench(&[&huge[..], &["--max-memory", "64M"]].concat()),
+            EXIT_USAGE,
+            vec!["268435456 pixels"],
+        ),
         (
             render(&["--camera", "99"]),
             EXIT_BAD_INPUT,
