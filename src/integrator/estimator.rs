@@ -22,7 +22,7 @@ use glam::Vec3;
 use super::Strategy;
 use crate::accel::{offset_ray_origin, Accel, Hit};
 use crate::lights::{emits_toward, EnvironmentMap, Light, Lights, Technique, TriangleLight};
-use crate::material::Brdf;
+use crate::material::{Brdf, Evaluation};
 use crate::sampling::prefetch::prefetch;
 use crate::sampling::sampler::CameraSample;
 use crate::sampling::warp::{self, Frame};
@@ -459,16 +459,7 @@ impl Estimator<'_> {
         wi: Vec3,
         hit: Option<Hit>,
     ) -> Option<Vec3> {
-        let le = match &hit {
-            Some(hit) => self.emission_at(hit, -wi),
-            None => self.environment_radiance(wi),
-        };
-        if le == Vec3::ZERO {
-            return None;
-        }
-        // Only a direction that found emission needs f and its density.
-        let brdf = x.brdf.evaluate(x.ns, x.wo, wi);
-        let pdf = x.brdf.pdf_of(&brdf);
+        let (le, brdf, pdf) = self.emission_with_brdf(x, wi, &hit)?;
         if pdf <= 0.0 {
             return None;
         }
@@ -478,6 +469,28 @@ impl Estimator<'_> {
             (true, None) => self.environment_mis_weight(x, wi, pdf),
         };
         Some(brdf.f * le * x.ns.dot(wi) * weight / (samples * pdf))
+    }
+
+    /// The emission a traced BSDF direction found (at the emitter it hit, else the environment's)
+    /// with f and the BRDF's solid-angle density for that direction; None when it found none
+    /// (only a direction that found emission needs f and its density).
+    #[inline]
+    fn emission_with_brdf(
+        &self,
+        x: &ShadingPoint,
+        wi: Vec3,
+        hit: &Option<Hit>,
+    ) -> Option<(Vec3, Evaluation, f32)> {
+        let le = match hit {
+            Some(hit) => self.emission_at(hit, -wi),
+            None => self.environment_radiance(wi),
+        };
+        if le == Vec3::ZERO {
+            return None;
+        }
+        let brdf = x.brdf.evaluate(x.ns, x.wo, wi);
+        let pdf = x.brdf.pdf_of(&brdf);
+        Some((le, brdf, pdf))
     }
 
     /// Power-heuristic weight of a BSDF sample that hit an emitter, against the light sampler's

@@ -36,7 +36,6 @@
 use glam::Vec3;
 
 use super::{Estimator, ShadingPoint};
-use crate::accel::offset_ray_origin;
 use crate::color::luminance;
 use crate::lights::{Light, Technique};
 use crate::sampling::rng::mix64;
@@ -280,25 +279,9 @@ impl Estimator<'_> {
         j: u32,
         counts: &mut SampleCounts,
     ) -> Option<(Candidate, f32, f32)> {
-        let wi = x
-            .brdf
-            .sample(x.ns, x.wo, cs.bsdf_lobe(j), cs.bsdf_direction(j))?;
-        if x.ng.dot(wi) <= 0.0 {
-            return None;
-        }
-        counts.bounce_rays += 1;
-        let origin = offset_ray_origin(x.p, x.ng);
-        let hit = self.accel.closest_hit(origin, wi, f32::INFINITY);
-        let le = match &hit {
-            Some(hit) => self.emission_at(hit, -wi),
-            None => self.environment_radiance(wi),
-        };
-        if le == Vec3::ZERO {
-            return None;
-        }
+        let (wi, hit) = self.bsdf_ray(x, j, cs, counts)?;
         // Only a direction that found emission needs f and the two densities.
-        let brdf = x.brdf.evaluate(x.ns, x.wo, wi);
-        let p_bsdf = x.brdf.pdf_of(&brdf);
+        let (le, brdf, p_bsdf) = self.emission_with_brdf(x, wi, &hit)?;
         if p_bsdf.is_nan() || p_bsdf <= 0.0 {
             return None;
         }
