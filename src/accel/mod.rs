@@ -1,9 +1,9 @@
 //! Ray queries over the scene's triangles with obvhs's compressed 8-wide BVH (CWBVH):
 //! closest hit for camera and hemisphere rays, any hit (first hit ends the walk) for shadow
-//! rays. The walk is obvhs's `traverse!` loop with our own triangle test, which returns the
-//! barycentrics with the distance; on CPUs with AVX2 + FMA the walk is compiled a second time
-//! for them, with an eight-children-at-once node test (`node_avx2`), and chosen at run time
-//! (the binary still runs on any x86-64).
+//! rays, with our own triangle test, which returns the barycentrics with the distance. On CPUs
+//! with AVX2 + FMA (chosen at run time; the binary still runs on any x86-64) a ray walks the
+//! tree nearest child first with an eight-children-at-once node test (`walk_avx2`,
+//! `node_avx2`); elsewhere the walk is obvhs's `traverse!` loop. Both find the same hits.
 //!
 //! Triangle test (Möller & Trumbore, "Fast, Minimum Storage Ray/Triangle Intersection", 1997,
 //! in the form with the triangle's normal and one cross product with the ray): with
@@ -28,6 +28,8 @@ mod cut;
 mod node_avx2;
 #[cfg(target_arch = "x86_64")]
 mod packet_avx2;
+#[cfg(target_arch = "x86_64")]
+mod walk_avx2;
 
 /// The most rays `Accel::closest_hits` traces in one walk.
 pub const PACKET: usize = 8;
@@ -180,10 +182,16 @@ impl Accel {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,lzcnt")]
     unsafe fn closest_hit_avx2(&self, ray: &Ray) -> Option<Hit> {
-        let node_ray = node_avx2::NodeRay::new(ray);
-        self.closest_hit_walk(ray, |node, ray, oct_inv4| {
-            node_avx2::intersect_node(node, &node_ray, ray.tmax, oct_inv4)
-        })
+        let mut walk_ray = *ray;
+        let mut best: Option<(u32, f32, f32)> = None;
+        walk_avx2::walk(&self.bvh.nodes, &mut walk_ray, |slot, walk_ray| {
+            if let Some((t, b1, b2)) = self.triangles[slot as usize].intersect(walk_ray) {
+                walk_ray.tmax = t;
+                best = Some((slot, b1, b2));
+            }
+            false
+        });
+        best.map(|(slot, b1, b2)| self.hit(slot, walk_ray.tmax, b1, b2))
     }
 
     /// # Safety
@@ -191,10 +199,13 @@ impl Accel {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,lzcnt")]
     unsafe fn occluded_avx2(&self, ray: &Ray) -> bool {
-        let node_ray = node_avx2::NodeRay::new(ray);
-        self.occluded_walk(ray, |node, ray, oct_inv4| {
-            node_avx2::intersect_node(node, &node_ray, ray.tmax, oct_inv4)
-        })
+        let mut walk_ray = *ray;
+        let mut hit = false;
+        walk_avx2::walk(&self.bvh.nodes, &mut walk_ray, |slot, walk_ray| {
+            hit = self.triangles[slot as usize].intersect(walk_ray).is_some();
+            hit
+        });
+        hit
     }
 
     /// Closest hit of a guarded ray, its distance measured from the unguarded origin, the
@@ -439,9 +450,13 @@ mod tests {
             let target = tris_centre(&scene, (u() * 400.0) as usize);
             let dir = (target - origin).normalize();
             let expected = brute_force(&scene, origin, dir);
+            accel.avx2 = false;
+            let obvhs_walk = accel.closest_hit(origin, dir, f32::INFINITY);
             for avx2 in [false, has_simd_walk()] {
                 accel.avx2 = avx2;
                 let got = accel.closest_hit(origin, dir, f32::INFINITY);
+                // The two walks find the same triangle with the same (t, b1, b2).
+                assert_eq!(got, obvhs_walk);
                 compared += 1;
                 match (got, expected) {
                     (None, None) => {}
@@ -518,7 +533,8 @@ mod tests {
                 for ray in &rays {
                     let expected = node.intersect_ray(ray, oct_inv4);
                     let node_ray = node_avx2::NodeRay::new(ray);
-                    let got = node_avx2::intersect_node(node, &node_ray, ray.tmax, oct_inv4);
+                    let (hit, _) = node_avx2::test_children(node, &node_ray, ray.tmax);
+                    let got = node_avx2::traversal_mask(node, oct_inv4, hit);
                     assert_eq!(got, expected);
                     expected_or |= expected;
                     nonzero += (expected != 0) as usize;

@@ -111,6 +111,22 @@ pub(super) unsafe fn hit_lanes(
     tmax: f32,
     planes: impl Fn(usize) -> (__m256, __m256),
 ) -> __m256 {
+    hit_and_entry(node, ray, tmax, planes).0
+}
+
+/// `hit_lanes`, and each child's entry distance max(t_near, 1e-4) (meaningful in hit lanes).
+///
+/// # Safety
+/// The CPU must support AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline]
+pub(super) unsafe fn hit_and_entry(
+    node: &CwBvhNode,
+    ray: &NodeRay,
+    tmax: f32,
+    planes: impl Fn(usize) -> (__m256, __m256),
+) -> (__m256, __m256) {
     /// obvhs's fixed lower clamp of a child's entry distance.
     const ENTRY_EPSILON: f32 = 1e-4;
     let scale = node.compute_extent() * ray.inv_direction;
@@ -123,7 +139,7 @@ pub(super) unsafe fn hit_lanes(
     let exit = _mm256_min_ps(far_x, _mm256_min_ps(far_y, far_z));
     let entry = _mm256_max_ps(entry, _mm256_set1_ps(ENTRY_EPSILON));
     let exit = _mm256_min_ps(exit, _mm256_set1_ps(tmax));
-    _mm256_cmp_ps::<_CMP_LE_OS>(entry, exit)
+    (_mm256_cmp_ps::<_CMP_LE_OS>(entry, exit), entry)
 }
 
 /// The near and far planes of `axis` for `ray` from a node's `boxes` (widened once for the
@@ -172,19 +188,15 @@ pub(super) unsafe fn traversal_mask(node: &CwBvhNode, oct_inv4: u32, hit: __m256
     _mm_cvtsi128_si32(one) as u32
 }
 
-/// The hit mask of obvhs's traversal for one ray, bit for bit what its own node test gives.
+/// The hit mask and entry distances (`hit_and_entry`) of the children of `node` for one ray,
+/// the near and far planes read directly from the node's bytes.
 ///
 /// # Safety
 /// The CPU must support AVX2 and FMA.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 #[inline]
-pub(super) unsafe fn intersect_node(
-    node: &CwBvhNode,
-    ray: &NodeRay,
-    tmax: f32,
-    oct_inv4: u32,
-) -> u32 {
+pub(super) unsafe fn test_children(node: &CwBvhNode, ray: &NodeRay, tmax: f32) -> (__m256, __m256) {
     let bytes = (node as *const CwBvhNode).cast::<u8>();
     // SAFETY: `near` and `far` hold offsets of [u8; 8] fields of `CwBvhNode`.
     let planes = |axis| unsafe {
@@ -193,8 +205,7 @@ pub(super) unsafe fn intersect_node(
             widen(&*bytes.add(ray.far[axis]).cast()),
         )
     };
-    let hit = hit_lanes(node, ray, tmax, planes);
-    traversal_mask(node, oct_inv4, hit)
+    hit_and_entry(node, ray, tmax, planes)
 }
 
 /// The low eight bytes of `bytes` as eight u32 lanes.

@@ -1,0 +1,97 @@
+//! The single-ray walk of the CWBVH on AVX2 CPUs, nearest child first with the children's
+//! entry distances kept on the stack (as Embree's BVH8 walk does), in place of obvhs's
+//! `traverse!`, which visits a node's children in the order of the ray's octant and re-enters a
+//! child after a nearer hit has put it out of reach.
+//!
+//! At a node, one AVX2 pass gives the children the ray enters before its current tmax and their
+//! entry distances (`node_avx2::test_children`, obvhs's slab test bit for bit). The triangles
+//! of the leaf children are tested first, which may shorten tmax; the inner children are pushed
+//! with their entry distances, farthest first, so that the nearest is popped next. A popped
+//! child whose entry lies beyond the ray's tmax (a nearer hit was found since it was pushed) is
+//! dropped without reading its node. The walk finds the same nearest triangle as obvhs's: the
+//! same children are hit, and a dropped child holds nothing nearer than tmax; only two triangles
+//! at exactly the same distance may be found in the other order.
+
+use std::arch::x86_64::*;
+use std::mem::MaybeUninit;
+
+use obvhs::cwbvh::node::CwBvhNode;
+use obvhs::ray::Ray;
+
+use super::node_avx2;
+
+/// Stack entries: obvhs's walk keeps 32 node groups (one per level); each level here pushes at
+/// most seven siblings beside the child it enters, so 7 · 32 + 8 covers the same depth. As in
+/// obvhs, a deeper tree overwrites the top entry rather than writing past the end.
+const STACK: usize = 232;
+
+/// Walks the BVH of `nodes` for `ray`, calling `leaf(slot, &mut ray)` with the leaf-order
+/// slot of every triangle in a leaf the ray enters; `leaf` may shorten `ray.tmax` (closest hit)
+/// or return true to end the walk (any hit).
+///
+/// # Safety
+/// The CPU must support AVX2, FMA, POPCNT, BMI1/2 and LZCNT.
+#[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,lzcnt")]
+#[inline]
+pub(super) unsafe fn walk(
+    nodes: &[CwBvhNode],
+    ray: &mut Ray,
+    mut leaf: impl FnMut(u32, &mut Ray) -> bool,
+) {
+    if nodes.is_empty() {
+        return;
+    }
+    let node_ray = node_avx2::NodeRay::new(ray);
+    let mut stack: [MaybeUninit<(u32, f32)>; STACK] = [MaybeUninit::uninit(); STACK];
+    let mut len = 0usize;
+    let mut index = 0u32;
+    loop {
+        let node = &nodes[index as usize];
+        let (hit, entry) = node_avx2::test_children(node, &node_ray, ray.tmax);
+        let triangles = node_avx2::traversal_mask(node, 0, hit) & 0x00ff_ffff;
+        let mut bits = triangles;
+        while bits != 0 {
+            let bit = bits.trailing_zeros();
+            bits &= bits - 1;
+            if leaf(node.primitive_base_idx + bit, ray) {
+                return;
+            }
+        }
+        let mut inner = _mm256_movemask_ps(hit) as u32 & node.imask as u32;
+        if inner != 0 {
+            let mut entries = [0.0f32; 8];
+            _mm256_storeu_ps(entries.as_mut_ptr(), entry);
+            let imask = node.imask as u32;
+            let first = len;
+            while inner != 0 {
+                let slot = inner.trailing_zeros();
+                inner &= inner - 1;
+                let child = node.child_base_idx + (imask & ((1 << slot) - 1)).count_ones();
+                let t = entries[slot as usize];
+                // Insertion by falling distance: the nearest ends on top.
+                let mut k = len;
+                while k > first {
+                    let (_, above) = stack[k - 1].assume_init();
+                    if above >= t {
+                        break;
+                    }
+                    stack[k] = stack[k - 1];
+                    k -= 1;
+                }
+                stack[k] = MaybeUninit::new((child, t));
+                len = (len + 1).min(STACK - 1);
+            }
+        }
+        loop {
+            if len == 0 {
+                return;
+            }
+            len -= 1;
+            let (child, t) = stack[len].assume_init();
+            if t <= ray.tmax {
+                index = child;
+                break;
+            }
+        }
+    }
+}
