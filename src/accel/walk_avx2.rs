@@ -5,8 +5,9 @@
 //!
 //! At a node, one AVX2 pass gives the children the ray enters before its current tmax and their
 //! entry distances (`node_avx2::test_children`, obvhs's slab test bit for bit). The triangles
-//! of the leaf children are tested first, which may shorten tmax; the inner children are pushed
-//! with their entry distances, farthest first, so that the nearest is popped next. A popped
+//! of the leaf children are tested first, which may shorten tmax (a leaf entered beyond a hit
+//! found in another is skipped); the inner children are pushed with their entry distances,
+//! farthest first, so that the nearest is popped next, and their nodes are prefetched. A popped
 //! child whose entry lies beyond the ray's tmax (a nearer hit was found since it was pushed) is
 //! dropped without reading its node. The walk finds the same nearest triangle as obvhs's: the
 //! same children are hit, and a dropped child holds nothing nearer than tmax; only two triangles
@@ -48,26 +49,39 @@ pub(super) unsafe fn walk(
     loop {
         let node = &nodes[index as usize];
         let (hit, entry) = node_avx2::test_children(node, &node_ray, ray.tmax);
-        let triangles = node_avx2::traversal_mask(node, 0, hit) & 0x00ff_ffff;
-        let mut bits = triangles;
-        while bits != 0 {
-            let bit = bits.trailing_zeros();
-            bits &= bits - 1;
-            if leaf(node.primitive_base_idx + bit, ray) {
-                return;
+        let hits = _mm256_movemask_ps(hit) as u32;
+        let imask = node.imask as u32;
+        let mut entries = [0.0f32; 8];
+        _mm256_storeu_ps(entries.as_mut_ptr(), entry);
+        // Leaf children (an empty slot has meta 0: no triangles): the low five bits of a leaf's
+        // meta are its first triangle's offset from the node's base, the high three its count
+        // in unary. A leaf whose entry lies beyond a hit found in a nearer leaf is skipped.
+        let mut leaves = hits & !imask;
+        while leaves != 0 {
+            let slot = leaves.trailing_zeros() as usize;
+            leaves &= leaves - 1;
+            if entries[slot] > ray.tmax {
+                continue;
+            }
+            let meta = node.child_meta[slot] as u32;
+            let first = node.primitive_base_idx + (meta & 0b1_1111);
+            for triangle in first..first + (meta >> 5).count_ones() {
+                if leaf(triangle, ray) {
+                    return;
+                }
             }
         }
-        let mut inner = _mm256_movemask_ps(hit) as u32 & node.imask as u32;
+        let mut inner = hits & imask;
         if inner != 0 {
-            let mut entries = [0.0f32; 8];
-            _mm256_storeu_ps(entries.as_mut_ptr(), entry);
-            let imask = node.imask as u32;
             let first = len;
             while inner != 0 {
                 let slot = inner.trailing_zeros();
                 inner &= inner - 1;
                 let child = node.child_base_idx + (imask & ((1 << slot) - 1)).count_ones();
                 let t = entries[slot as usize];
+                let ahead = nodes.as_ptr().wrapping_add(child as usize).cast::<i8>();
+                _mm_prefetch::<_MM_HINT_T0>(ahead);
+                _mm_prefetch::<_MM_HINT_T0>(ahead.wrapping_add(64));
                 // Insertion by falling distance: the nearest ends on top.
                 let mut k = len;
                 while k > first {
