@@ -21,10 +21,11 @@ use obvhs::ray::Ray;
 
 use super::node_avx2;
 
-/// Stack entries: obvhs's walk keeps 32 node groups (one per level); each level here pushes at
-/// most seven siblings beside the child it enters, so 7 · 32 + 8 covers the same depth. As in
-/// obvhs, a deeper tree overwrites the top entry rather than writing past the end.
-const STACK: usize = 232;
+/// Stack entries: a node's visit pops one entry and pushes at most eight (its inner children),
+/// so a walk through a tree d levels deep holds at most 7·d + 1; 512 (4 KiB, left
+/// uninitialised) covers 73 levels, where obvhs's own walk keeps 32. A deeper tree drops the
+/// newest entries rather than writing past the end, as obvhs's stack does.
+const STACK: usize = 512;
 
 /// Walks the BVH of `nodes` for `ray`, calling `leaf(slot, &mut ray)` with the leaf-order
 /// slot of every triangle in a leaf the ray enters; `leaf` may shorten `ray.tmax` (closest hit)
