@@ -98,23 +98,8 @@ unsafe fn axis_bounds(node: &CwBvhNode, axis: usize) -> (__m256, __m256) {
 
 /// All-ones in the lanes of the children `ray` hits (obvhs's slab test, see the module header)
 /// with the ray's current `tmax`, the near and far planes' offsets along each axis as f32
-/// lanes from `planes(axis)`.
-///
-/// # Safety
-/// The CPU must support AVX2 and FMA.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-#[inline]
-pub(super) unsafe fn hit_lanes(
-    node: &CwBvhNode,
-    ray: &NodeRay,
-    tmax: f32,
-    planes: impl Fn(usize) -> (__m256, __m256),
-) -> __m256 {
-    hit_and_entry(node, ray, tmax, planes).0
-}
-
-/// `hit_lanes`, and each child's entry distance max(t_near, 1e-4) (meaningful in hit lanes).
+/// lanes from `planes(axis)`; and each child's entry distance max(t_near, 1e-4) (meaningful in
+/// hit lanes).
 ///
 /// # Safety
 /// The CPU must support AVX2 and FMA.
@@ -169,7 +154,7 @@ pub(super) unsafe fn box_planes(
 ///
 /// # Safety
 /// The CPU must support AVX2 and FMA.
-#[cfg(target_arch = "x86_64")]
+#[cfg(all(test, target_arch = "x86_64"))]
 #[target_feature(enable = "avx2,fma")]
 #[inline]
 pub(super) unsafe fn traversal_mask(node: &CwBvhNode, oct_inv4: u32, hit: __m256) -> u32 {

@@ -1,8 +1,9 @@
 //! Closest hits of up to eight rays that start close together and point the same way (the
-//! camera samples of one pixel), in one walk of the BVH: a node is entered when any ray of the
-//! packet hits it, and each triangle is tested against all eight rays at once, one AVX2 lane per
-//! ray. The rays share the walk's latency (one chain of node fetches instead of eight), which
-//! is what a single-ray walk waits on.
+//! camera samples of one pixel), in one walk of the BVH (`walk_avx2`, nearest child first): a
+//! child is entered when any ray of the packet hits it, ordered and culled by the least entry
+//! distance among those rays against the largest tmax among all, and each triangle is tested
+//! against all eight rays at once, one AVX2 lane per ray. The rays share the walk's latency
+//! (one chain of node fetches instead of eight), which is what a single-ray walk waits on.
 //!
 //! Each ray keeps its own closest distance, and the node and triangle tests are the single-ray
 //! ones (`node_avx2`, `TestTriangle::intersect`) with the same arithmetic in the same order, so a
@@ -12,10 +13,17 @@
 
 use std::arch::x86_64::*;
 
-use glam::UVec2;
 use obvhs::ray::Ray;
 
-use super::{node_avx2, Accel, Hit, TestTriangle, PACKET};
+use super::{node_avx2, walk_avx2, Accel, Hit, TestTriangle, PACKET};
+
+/// The rays of a packet as a walk's query: their lanes, their obvhs rays (whose tmax the node
+/// test reads) and the largest tmax among them.
+struct Packet<'a> {
+    lanes: Lanes,
+    rays: &'a mut [Ray],
+    reach: f32,
+}
 
 /// Eight rays, one lane each: origin, direction, and the nearest hit so far.
 struct Lanes {
@@ -42,39 +50,47 @@ impl Accel {
     #[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,lzcnt")]
     pub(super) unsafe fn closest_hits_avx2(&self, rays: &mut [Ray], hits: &mut [Option<Hit>]) {
         debug_assert!(rays.len() <= PACKET && hits.len() == rays.len());
-        let mut lanes = Lanes::new(rays);
         let node_rays: [_; PACKET] =
             std::array::from_fn(|i| node_avx2::NodeRay::new(&rays[i.min(rays.len() - 1)]));
-        let mut state = self.bvh.new_traversal(rays[0].direction);
-        let mut node;
-        obvhs::traverse!(
-            self.bvh,
-            node,
-            state,
-            {
-                // The children any ray hits; the boxes are widened once for all the rays.
+        let reach = rays.iter().fold(0.0f32, |m, r| m.max(r.tmax));
+        let mut packet = Packet {
+            lanes: Lanes::new(rays),
+            rays,
+            reach,
+        };
+        walk_avx2::walk(
+            &self.bvh.nodes,
+            &mut packet,
+            |packet, node| {
+                // The children any ray hits, at the least entry among those rays; the boxes
+                // are widened once for all the rays.
                 let boxes = node_avx2::child_boxes(node);
                 let mut hit = _mm256_setzero_ps();
-                for (ray, node_ray) in rays.iter().zip(&node_rays) {
+                let mut entry = _mm256_set1_ps(f32::INFINITY);
+                for (ray, node_ray) in packet.rays.iter().zip(&node_rays) {
                     let planes = |axis| node_avx2::box_planes(&boxes, node_ray, axis);
-                    let lanes = node_avx2::hit_lanes(node, node_ray, ray.tmax, planes);
+                    let (lanes, t) = node_avx2::hit_and_entry(node, node_ray, ray.tmax, planes);
                     hit = _mm256_or_ps(hit, lanes);
+                    entry = _mm256_min_ps(_mm256_blendv_ps(entry, t, lanes), entry);
                 }
-                node_avx2::traversal_mask(node, state.oct_inv4, hit)
+                (hit, entry)
             },
-            {
-                let slot = state.primitive_id;
-                let closer = lanes.intersect(&self.triangles[slot as usize], slot);
+            |packet| packet.reach,
+            |packet, slot| {
+                let closer = packet.lanes.intersect(&self.triangles[slot as usize], slot);
                 if closer != 0 {
                     // The rays that found a nearer triangle now cull boxes beyond it.
                     let mut t = [0.0f32; PACKET];
-                    _mm256_storeu_ps(t.as_mut_ptr(), lanes.t);
-                    for (ray, t) in rays.iter_mut().zip(t) {
+                    _mm256_storeu_ps(t.as_mut_ptr(), packet.lanes.t);
+                    for (ray, t) in packet.rays.iter_mut().zip(t) {
                         ray.tmax = t;
                     }
+                    packet.reach = packet.rays.iter().fold(0.0f32, |m, r| m.max(r.tmax));
                 }
-            }
+                false
+            },
         );
+        let Packet { lanes, rays, .. } = packet;
         let mut slot = [0i32; PACKET];
         let (mut b1, mut b2) = ([0.0f32; PACKET], [0.0f32; PACKET]);
         _mm256_storeu_si256(slot.as_mut_ptr().cast(), lanes.slot);

@@ -1,7 +1,7 @@
-//! The single-ray walk of the CWBVH on AVX2 CPUs, nearest child first with the children's
-//! entry distances kept on the stack (as Embree's BVH8 walk does), in place of obvhs's
-//! `traverse!`, which visits a node's children in the order of the ray's octant and re-enters a
-//! child after a nearer hit has put it out of reach.
+//! The walk of the CWBVH on AVX2 CPUs (one ray, or a packet's rays: `packet_avx2`), nearest
+//! child first with the children's entry distances kept on the stack (as Embree's BVH8 walk
+//! does), in place of obvhs's `traverse!`, which visits a node's children in the order of the
+//! ray's octant and re-enters a child after a nearer hit has put it out of reach.
 //!
 //! At a node, one AVX2 pass gives the children the ray enters before its current tmax and their
 //! entry distances (`node_avx2::test_children`, obvhs's slab test bit for bit). The triangles
@@ -17,9 +17,6 @@ use std::arch::x86_64::*;
 use std::mem::MaybeUninit;
 
 use obvhs::cwbvh::node::CwBvhNode;
-use obvhs::ray::Ray;
-
-use super::node_avx2;
 
 /// Stack entries: a node's visit pops one entry and pushes at most eight (its inner children),
 /// so a walk through a tree d levels deep holds at most 7·d + 1; 512 (4 KiB, left
@@ -27,29 +24,33 @@ use super::node_avx2;
 /// newest entries rather than writing past the end, as obvhs's stack does.
 const STACK: usize = 512;
 
-/// Walks the BVH of `nodes` for `ray`, calling `leaf(slot, &mut ray)` with the leaf-order
-/// slot of every triangle in a leaf the ray enters; `leaf` may shorten `ray.tmax` (closest hit)
-/// or return true to end the walk (any hit).
+/// Walks the BVH of `nodes` for a query `state` (one ray, or the rays of a packet):
+/// `children(state, node)` gives the hit lanes and entry distances of a node's children (for a
+/// packet: the lanes any ray hits, at the least entry among the rays that hit them),
+/// `reach(state)` the farthest distance any ray still looks at (its tmax), and
+/// `leaf(state, slot)` tests the triangle in leaf-order `slot`, possibly shortening tmax
+/// (closest hit), and returns true to end the walk (any hit).
 ///
 /// # Safety
 /// The CPU must support AVX2, FMA, POPCNT, BMI1/2 and LZCNT.
 #[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,lzcnt")]
 #[inline]
-pub(super) unsafe fn walk(
+pub(super) unsafe fn walk<S>(
     nodes: &[CwBvhNode],
-    ray: &mut Ray,
-    mut leaf: impl FnMut(u32, &mut Ray) -> bool,
+    state: &mut S,
+    children: impl Fn(&S, &CwBvhNode) -> (__m256, __m256),
+    reach: impl Fn(&S) -> f32,
+    mut leaf: impl FnMut(&mut S, u32) -> bool,
 ) {
     if nodes.is_empty() {
         return;
     }
-    let node_ray = node_avx2::NodeRay::new(ray);
     let mut stack: [MaybeUninit<(u32, f32)>; STACK] = [MaybeUninit::uninit(); STACK];
     let mut len = 0usize;
     let mut index = 0u32;
     loop {
         let node = &nodes[index as usize];
-        let (hit, entry) = node_avx2::test_children(node, &node_ray, ray.tmax);
+        let (hit, entry) = children(state, node);
         let hits = _mm256_movemask_ps(hit) as u32;
         let imask = node.imask as u32;
         let mut entries = [0.0f32; 8];
@@ -61,13 +62,13 @@ pub(super) unsafe fn walk(
         while leaves != 0 {
             let slot = leaves.trailing_zeros() as usize;
             leaves &= leaves - 1;
-            if entries[slot] > ray.tmax {
+            if entries[slot] > reach(state) {
                 continue;
             }
             let meta = node.child_meta[slot] as u32;
             let first = node.primitive_base_idx + (meta & 0b1_1111);
             for triangle in first..first + (meta >> 5).count_ones() {
-                if leaf(triangle, ray) {
+                if leaf(state, triangle) {
                     return;
                 }
             }
@@ -103,7 +104,7 @@ pub(super) unsafe fn walk(
             }
             len -= 1;
             let (child, t) = stack[len].assume_init();
-            if t <= ray.tmax {
+            if t <= reach(state) {
                 index = child;
                 break;
             }
