@@ -178,28 +178,41 @@ impl Accel {
         len > 0.0 && self.occluded(from, d / len, len)
     }
 
+    /// The nearest-first walk of one ray: `leaf(ray, slot)` is called for each triangle slot it
+    /// reaches (it may shorten `ray.tmax`; true ends the walk); returns the ray as the walk left it.
+    ///
     /// # Safety
     /// The CPU must support the features of `has_simd_walk`.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,lzcnt")]
-    unsafe fn closest_hit_avx2(&self, ray: &Ray) -> Option<Hit> {
+    #[inline]
+    unsafe fn walk_one_avx2(&self, ray: &Ray, leaf: impl FnMut(&mut Ray, u32) -> bool) -> Ray {
         let node_ray = node_avx2::NodeRay::new(ray);
         let mut walk_ray = *ray;
-        let mut best: Option<(u32, f32, f32)> = None;
         walk_avx2::walk(
             &self.bvh.nodes,
             &mut walk_ray,
             |ray, node| node_avx2::test_children(node, &node_ray, ray.tmax),
             |ray| ray.tmax,
-            |ray, slot| {
-                if let Some((t, b1, b2)) = self.triangles[slot as usize].intersect(ray) {
-                    ray.tmax = t;
-                    best = Some((slot, b1, b2));
-                }
-                false
-            },
+            leaf,
         );
-        best.map(|(slot, b1, b2)| self.hit(slot, walk_ray.tmax, b1, b2))
+        walk_ray
+    }
+
+    /// # Safety
+    /// The CPU must support the features of `has_simd_walk`.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,lzcnt")]
+    unsafe fn closest_hit_avx2(&self, ray: &Ray) -> Option<Hit> {
+        let mut best: Option<(u32, f32, f32)> = None;
+        let walked = self.walk_one_avx2(ray, |ray, slot| {
+            if let Some((t, b1, b2)) = self.triangles[slot as usize].intersect(ray) {
+                ray.tmax = t;
+                best = Some((slot, b1, b2));
+            }
+            false
+        });
+        best.map(|(slot, b1, b2)| self.hit(slot, walked.tmax, b1, b2))
     }
 
     /// # Safety
@@ -207,19 +220,11 @@ impl Accel {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,lzcnt")]
     unsafe fn occluded_avx2(&self, ray: &Ray) -> bool {
-        let node_ray = node_avx2::NodeRay::new(ray);
-        let mut walk_ray = *ray;
         let mut hit = false;
-        walk_avx2::walk(
-            &self.bvh.nodes,
-            &mut walk_ray,
-            |ray, node| node_avx2::test_children(node, &node_ray, ray.tmax),
-            |ray| ray.tmax,
-            |ray, slot| {
-                hit = self.triangles[slot as usize].intersect(ray).is_some();
-                hit
-            },
-        );
+        self.walk_one_avx2(ray, |ray, slot| {
+            hit = self.triangles[slot as usize].intersect(ray).is_some();
+            hit
+        });
         hit
     }
 
