@@ -16,7 +16,7 @@
 //! behind the receiver's horizon by more than that gets less weight) and β =
 //! `CONSERVATIVE_SHARE` (0.1): no lane falls below that share of pbrt's bound.
 //! Inside the whole sphere (d ≤ r), where pbrt's cosines are 1, the floor is
-//! `INSIDE_FLOOR` (½) instead of β·cos; inside the quarter sphere the sharp
+//! `INSIDE_FLOOR` (¼) instead of β·cos; inside the quarter sphere the sharp
 //! cosines are 1 too. The zero test is pbrt's, on the whole sphere: 0 when
 //! θp(θb) ≥ θe or θr(θb) ≥ 90° (never inside), so a child that can reach p's
 //! upper hemisphere always gets a positive importance. Angles are combined
