@@ -4,16 +4,22 @@
 //! plane (8×8 midpoint quadrature), computed here independently of the renderer.
 
 use crate::lambert;
+use crate::top_view::TopView;
 
-use glam::{DVec3, Mat4, Vec3};
+use glam::{DVec3, Vec3};
 use manylights::integrator::{render, PreparedScene, RenderOptions, Strategy};
-use manylights::scene::{Camera, Material, Scene, Triangle};
+use manylights::scene::{Material, Scene, Triangle};
 use manylights::select::SelectorKind;
 
 const RHO: f32 = 0.5;
 const CAMERA_HEIGHT: f32 = 3.0;
 const YFOV_DEG: f32 = 20.0;
 const SIZE: u32 = 24;
+const VIEW: TopView = TopView {
+    height: CAMERA_HEIGHT,
+    yfov_deg: YFOV_DEG,
+    size: SIZE,
+};
 
 /// Emitters at height 0.6 facing −Z (down), around the camera's field of view:
 /// (x0, y0, x1, y1, radiance).
@@ -47,13 +53,7 @@ fn scene() -> Scene {
         tris.push(Triangle::flat([a, c, b], m));
         tris.push(Triangle::flat([a, d, c], m));
     }
-    let camera = Camera::from_world_matrix(
-        "top".into(),
-        &Mat4::from_translation(Vec3::new(0.0, 0.0, CAMERA_HEIGHT)),
-        YFOV_DEG.to_radians(),
-        None,
-    )
-    .unwrap();
+    let camera = VIEW.camera();
     Scene::new(tris, materials, Some(camera)).unwrap()
 }
 
@@ -73,20 +73,7 @@ fn exitant_radiance(x: f64, y: f64) -> f64 {
 
 /// The expected pixel: the box filter's average of `radiance` over the pixel's footprint.
 fn expected_pixel(i: u32, j: u32, radiance: fn(f64, f64) -> f64) -> f64 {
-    let t = (0.5 * YFOV_DEG.to_radians() as f64).tan();
-    let h = CAMERA_HEIGHT as f64;
-    let q = 8;
-    let mut sum = 0.0;
-    for a in 0..q {
-        for b in 0..q {
-            let u = (a as f64 + 0.5) / q as f64;
-            let v = (b as f64 + 0.5) / q as f64;
-            let sx = (2.0 * (i as f64 + u) / SIZE as f64 - 1.0) * t;
-            let sy = (1.0 - 2.0 * (j as f64 + v) / SIZE as f64) * t;
-            sum += radiance(h * sx, h * sy);
-        }
-    }
-    sum / (q * q) as f64
+    VIEW.pixel(i, j, 8, radiance)
 }
 
 /// Renders the quad-lit plane and checks it against Lambert's formula.

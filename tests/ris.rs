@@ -5,22 +5,28 @@
 //! lie within 5σ of its expected value (σ from the pixels' own sample variances).
 
 use crate::lambert;
+use crate::top_view::TopView;
 
 use crate::run;
 use run::manylights;
 
 use std::path::Path;
 
-use glam::{DVec3, Mat4, Vec3};
+use glam::{DVec3, Vec3};
 use manylights::film::Film;
 use manylights::integrator::{render, PreparedScene, RenderOptions, Strategy};
-use manylights::scene::{Camera, Material, Scene, Triangle};
+use manylights::scene::{Material, Scene, Triangle};
 use manylights::select::SelectorKind;
 
 const RHO: f32 = 0.5;
 const CAMERA_HEIGHT: f32 = 3.0;
 const YFOV_DEG: f32 = 20.0;
 const SIZE: u32 = 16;
+const VIEW: TopView = TopView {
+    height: CAMERA_HEIGHT,
+    yfov_deg: YFOV_DEG,
+    size: SIZE,
+};
 
 /// A planar emitter: its corners (counter-clockwise seen from the side it lights) and radiance.
 #[derive(Clone, Copy)]
@@ -93,13 +99,7 @@ fn scene(plane: Material, emitters: &[Emitter]) -> Scene {
         tris.push(Triangle::flat([a, b, c], m));
         tris.push(Triangle::flat([a, c, d], m));
     }
-    let camera = Camera::from_world_matrix(
-        "top".into(),
-        &Mat4::from_translation(Vec3::new(0.0, 0.0, CAMERA_HEIGHT)),
-        YFOV_DEG.to_radians(),
-        None,
-    )
-    .unwrap();
+    let camera = VIEW.camera();
     Scene::new(tris, materials, Some(camera)).unwrap()
 }
 
@@ -129,20 +129,7 @@ fn lambert_radiance(emitters: &[Emitter], x: f64, y: f64) -> f64 {
 
 /// The expected pixel (i, j): `radiance` averaged over the pixel's footprint on the plane.
 fn expected_pixel(i: u32, j: u32, radiance: &dyn Fn(f64, f64) -> f64) -> f64 {
-    let t = (0.5 * YFOV_DEG.to_radians() as f64).tan();
-    let h = CAMERA_HEIGHT as f64;
-    let q = 6;
-    let mut sum = 0.0;
-    for a in 0..q {
-        for b in 0..q {
-            let u = (a as f64 + 0.5) / q as f64;
-            let v = (b as f64 + 0.5) / q as f64;
-            let sx = (2.0 * (i as f64 + u) / SIZE as f64 - 1.0) * t;
-            let sy = (1.0 - 2.0 * (j as f64 + v) / SIZE as f64) * t;
-            sum += radiance(h * sx, h * sy);
-        }
-    }
-    sum / (q * q) as f64
+    VIEW.pixel(i, j, 6, radiance)
 }
 
 /// Renders `scene` with one configuration (fixed seed, independent numbers).
