@@ -12,13 +12,11 @@ use manylights::scene::{Material, Scene, Triangle};
 use manylights::select::SelectorKind;
 
 const RHO: f32 = 0.5;
-const CAMERA_HEIGHT: f32 = 3.0;
-const YFOV_DEG: f32 = 20.0;
-const SIZE: u32 = 24;
+/// The camera: 3.0 above the plane, 20.0° field of view, 24×24 pixels.
 const VIEW: TopView = TopView {
-    height: CAMERA_HEIGHT,
-    yfov_deg: YFOV_DEG,
-    size: SIZE,
+    height: 3.0,
+    yfov_deg: 20.0,
+    size: 24,
 };
 
 /// Emitters at height 0.6 facing −Z (down), around the camera's field of view:
@@ -95,15 +93,15 @@ fn check_scene(
     let prepared = PreparedScene::new(scene, selector);
     let estimator = prepared.estimator(strategy, k, n);
     let camera = prepared.scene.camera.clone().unwrap();
-    let opts = RenderOptions::new(SIZE, SIZE, spp, 11);
+    let opts = RenderOptions::new(VIEW.size, VIEW.size, spp, 11);
     let (film, stats) = render(&estimator, &camera, &opts);
     assert_eq!(stats.nan_samples + stats.inf_samples, 0);
 
     let label = format!("{selector:?} {strategy:?} {k}x{n}");
     let (mut sum, mut expected_sum, mut var_sum) = (0.0, 0.0, 0.0);
-    for j in 0..SIZE {
-        for i in 0..SIZE {
-            let px = &film.pixels[(j * SIZE + i) as usize];
+    for j in 0..VIEW.size {
+        for i in 0..VIEW.size {
+            let px = &film.pixels[(j * VIEW.size + i) as usize];
             let expected = expected_pixel(i, j, radiance);
             let sigma = px.variance_of_mean().x.sqrt();
             assert!(
@@ -141,7 +139,7 @@ fn check_scene(
 #[test]
 fn camera_sees_only_the_plane() {
     // The premise of the test: no emitter inside the view frustum at the emitters' height.
-    let reach = (CAMERA_HEIGHT - EMITTER_HEIGHT) * (0.5 * YFOV_DEG.to_radians()).tan();
+    let reach = (VIEW.height - EMITTER_HEIGHT) * (0.5 * VIEW.yfov_deg.to_radians()).tan();
     for &(x0, y0, x1, y1, _) in &QUADS {
         let outside = x0 > reach || x1 < -reach || y0 > reach || y1 < -reach;
         assert!(outside, "emitter ({x0},{y0})..({x1},{y1}) is visible");

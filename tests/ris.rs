@@ -19,13 +19,11 @@ use manylights::scene::{Material, Scene, Triangle};
 use manylights::select::SelectorKind;
 
 const RHO: f32 = 0.5;
-const CAMERA_HEIGHT: f32 = 3.0;
-const YFOV_DEG: f32 = 20.0;
-const SIZE: u32 = 16;
+/// The camera: 3.0 above the plane, 20.0° field of view, 16×16 pixels.
 const VIEW: TopView = TopView {
-    height: CAMERA_HEIGHT,
-    yfov_deg: YFOV_DEG,
-    size: SIZE,
+    height: 3.0,
+    yfov_deg: 20.0,
+    size: 16,
 };
 
 /// A planar emitter: its corners (counter-clockwise seen from the side it lights) and radiance.
@@ -144,7 +142,7 @@ fn render_film(
     let prepared = PreparedScene::new(scene, selector);
     let estimator = prepared.estimator(strategy, 1, 1).with_candidates(m);
     let camera = prepared.scene.camera.clone().unwrap();
-    let opts = RenderOptions::new(SIZE, SIZE, spp, seed);
+    let opts = RenderOptions::new(VIEW.size, VIEW.size, spp, seed);
     let (film, stats) = render(&estimator, &camera, &opts);
     assert_eq!(stats.nan_samples + stats.inf_samples, 0);
     film
@@ -159,9 +157,9 @@ fn check_film(
     expected_variance: &dyn Fn(u32, u32) -> f64,
 ) {
     let (mut sum, mut expected_sum, mut var_sum) = (0.0, 0.0, 0.0);
-    for j in 0..SIZE {
-        for i in 0..SIZE {
-            let px = &film.pixels[(j * SIZE + i) as usize];
+    for j in 0..VIEW.size {
+        for i in 0..VIEW.size {
+            let px = &film.pixels[(j * VIEW.size + i) as usize];
             let want = expected(i, j);
             let var = px.variance_of_mean().x + expected_variance(i, j);
             let sigma = var.sqrt();
@@ -206,10 +204,10 @@ fn check_lambert(emitters: &[Emitter], selector: SelectorKind, strategy: Strateg
 #[test]
 fn camera_sees_only_the_plane() {
     // The premise of the Lambert tests: every emitter lies outside the view frustum.
-    let tan = (0.5 * YFOV_DEG.to_radians()).tan();
+    let tan = (0.5 * VIEW.yfov_deg.to_radians()).tan();
     for e in four_quads().iter().chain(&horizon_emitters()) {
         let outside = |axis: usize| {
-            let reach = |v: &Vec3| (CAMERA_HEIGHT - v.z) * tan;
+            let reach = |v: &Vec3| (VIEW.height - v.z) * tan;
             e.corners.iter().all(|v| v[axis] > reach(v))
                 || e.corners.iter().all(|v| v[axis] < -reach(v))
         };
@@ -280,8 +278,12 @@ fn ris_on_a_glossy_plane_matches_mis() {
     };
     let s = || scene(glossy.clone(), &four_quads());
     let mis = render_film(s(), SelectorKind::Power, Strategy::Mis, 1, 2048, 5);
-    let expected = |i: u32, j: u32| mis.pixels[(j * SIZE + i) as usize].mean.x;
-    let variance = |i: u32, j: u32| mis.pixels[(j * SIZE + i) as usize].variance_of_mean().x;
+    let expected = |i: u32, j: u32| mis.pixels[(j * VIEW.size + i) as usize].mean.x;
+    let variance = |i: u32, j: u32| {
+        mis.pixels[(j * VIEW.size + i) as usize]
+            .variance_of_mean()
+            .x
+    };
     for (strategy, m) in [
         (Strategy::Ris, 8),
         (Strategy::RisMis, 1),

@@ -23,13 +23,11 @@ use manylights::select::SelectorKind;
 
 const RHO: f64 = 0.5;
 const RADIANCE: f64 = 3.0;
-const CAMERA_HEIGHT: f32 = 3.0;
-const YFOV_DEG: f32 = 20.0;
-const SIZE: u32 = 16;
+/// The camera: 3.0 above the plane, 20.0° field of view, 16×16 pixels.
 const VIEW: TopView = TopView {
-    height: CAMERA_HEIGHT,
-    yfov_deg: YFOV_DEG,
-    size: SIZE,
+    height: 3.0,
+    yfov_deg: 20.0,
+    size: 16,
 };
 const SEEDS: u64 = 8;
 const SPPS: [u32; 5] = [4, 8, 16, 32, 64];
@@ -101,7 +99,7 @@ fn measure(prepared: &PreparedScene, expected: &[f64], sampler: SamplerKind) -> 
         for seed in 0..SEEDS {
             let opts = RenderOptions {
                 sampler,
-                ..RenderOptions::new(SIZE, SIZE, spp, derive_seed(level as u64, seed))
+                ..RenderOptions::new(VIEW.size, VIEW.size, spp, derive_seed(level as u64, seed))
             };
             let (film, stats) = render(&estimator, &camera, &opts);
             assert_eq!(stats.nan_samples + stats.inf_samples, 0);
@@ -127,8 +125,8 @@ fn measure(prepared: &PreparedScene, expected: &[f64], sampler: SamplerKind) -> 
 #[test]
 fn every_sampler_is_unbiased_and_converges_at_its_rate() {
     let prepared = PreparedScene::new(scene(), SelectorKind::Power);
-    let expected: Vec<f64> = (0..SIZE)
-        .flat_map(|j| (0..SIZE).map(move |i| expected_pixel(i, j)))
+    let expected: Vec<f64> = (0..VIEW.size)
+        .flat_map(|j| (0..VIEW.size).map(move |i| expected_pixel(i, j)))
         .collect();
     let truth = expected.iter().sum::<f64>() / expected.len() as f64;
     let kinds = [
