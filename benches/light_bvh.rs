@@ -5,16 +5,15 @@
 //! `sample` and `pmf` per call on 50,000.
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
+mod common;
+use common::generated_city;
 use glam::Vec3;
-use manylights::gen::generate::city;
 use manylights::lights::Lights;
-use manylights::scene::load_gltf_bytes;
 use manylights::select::light_tree::{LightBounds, LightBvh};
 use manylights::select::BvhSelector;
 use rand_core::Rng;
 use rand_pcg::Pcg32;
 use std::hint::black_box;
-use std::path::Path;
 use std::time::Duration;
 
 struct Rand(Pcg32);
@@ -77,14 +76,7 @@ fn build(c: &mut Criterion) {
         });
     }
     for count in [50_000, 1_000_000] {
-        let bytes = city(count, 1).to_glb_bytes();
-        let scene = load_gltf_bytes(
-            &bytes,
-            Path::new("city.glb"),
-            Path::new("."),
-            &Default::default(),
-        )
-        .expect("generated city loads");
+        let scene = generated_city(count);
         let lights = Lights::from_scene(&scene);
         group.bench_function(format!("city{count}"), |b| {
             b.iter_batched(

@@ -29,10 +29,11 @@ use std::time::Duration;
 
 use criterion::measurement::{Measurement, ValueFormatter};
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+mod common;
+use common::{generated_city, shipped};
 use glam::Vec3;
 use manylights::accel::{offset_ray_origin, Accel, PACKET};
-use manylights::gen::generate::city;
-use manylights::scene::{load_gltf, load_gltf_bytes, Camera, Scene};
+use manylights::scene::{Camera, Scene};
 use rand_core::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
 
@@ -253,19 +254,6 @@ fn record(scene: &Scene, accel: &Accel, seed: u64) -> [RaySet; 3] {
         }
     }
     [cam, shadow, bounce]
-}
-
-fn shipped(name: &str) -> Scene {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("scenes/{name}.glb"));
-    load_gltf(&path, &Default::default()).expect("shipped scene loads")
-}
-
-/// The generated city with `lights` emitters, as `manylights gen city --lights N` writes it.
-fn generated_city(lights: usize) -> Scene {
-    let bytes = city(lights, 1).to_glb_bytes();
-    let path = Path::new("city.glb");
-    load_gltf_bytes(&bytes, path, Path::new("."), &Default::default())
-        .expect("generated city loads")
 }
 
 fn write_f32s(path: &Path, values: impl Iterator<Item = f32>) {

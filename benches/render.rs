@@ -3,16 +3,14 @@
 //! shading points, and one frame at 128×128, 1 spp, K = N = 1.
 
 use std::hint::black_box;
-use std::path::Path;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 mod common;
-use common::shading_points;
+use common::{shading_points, shipped};
 use manylights::accel::Accel;
 use manylights::integrator::{render, PreparedScene, RenderOptions, Strategy};
 use manylights::lights::Lights;
 use manylights::sampling::rng::PixelRng;
-use manylights::scene::{load_gltf, Scene};
 use manylights::select::{LightSelector, SelectorKind};
 
 const SELECTORS: [SelectorKind; 4] = [
@@ -22,13 +20,8 @@ const SELECTORS: [SelectorKind; 4] = [
     SelectorKind::Oracle,
 ];
 
-fn town() -> Scene {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/town.glb");
-    load_gltf(&path, &Default::default()).expect("scenes/town.glb loads")
-}
-
 fn town_benches(c: &mut Criterion) {
-    let scene = town();
+    let scene = shipped("town");
     c.bench_function("town/bvh_build", |b| b.iter(|| Accel::build(&scene)));
     for kind in [SelectorKind::Power, SelectorKind::Bvh] {
         c.bench_function(&format!("town/light_build/{kind:?}"), |b| {

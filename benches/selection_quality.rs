@@ -14,14 +14,11 @@
 //! Scenes: `scenes/town.glb` and the generated 50k city (seed 1, as `manylights gen city`).
 //! Run: `cargo bench --bench selection_quality` (about 30 s; prints a table, times nothing).
 
-use std::path::Path;
-
 mod common;
-use common::shading_points;
+use common::{generated_city, shading_points, shipped};
 use manylights::accel::Accel;
-use manylights::gen::generate::city;
 use manylights::lights::Lights;
-use manylights::scene::{load_gltf, load_gltf_bytes, Scene};
+use manylights::scene::Scene;
 use manylights::select::{oracle, LightSelector, SelectorKind, ShadingContext};
 
 /// Camera rays per image side (columns; rows follow the 4:3 frame).
@@ -78,16 +75,8 @@ fn divergence(scene: &Scene, points: &[ShadingContext], kind: SelectorKind) -> D
 }
 
 fn main() {
-    let town_path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/town.glb");
-    let town = load_gltf(&town_path, &Default::default()).expect("scenes/town.glb loads");
-    let city_bytes = city(50_000, 1).to_glb_bytes();
-    let city = load_gltf_bytes(
-        &city_bytes,
-        Path::new("city.glb"),
-        Path::new("."),
-        &Default::default(),
-    )
-    .expect("the generated city loads");
+    let town = shipped("town");
+    let city = generated_city(50_000);
     println!(
         "scene     selector  points  W²-weighted χ²     mean χ²  median χ²      max χ²  \
          points with a contributing light at p = 0"

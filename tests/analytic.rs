@@ -4,16 +4,20 @@
 //! plane (8×8 midpoint quadrature), computed here independently of the renderer.
 
 use crate::lambert;
+use crate::top_view::TopView;
 
-use glam::{DVec3, Mat4, Vec3};
+use glam::{DVec3, Vec3};
 use manylights::integrator::{render, PreparedScene, RenderOptions, Strategy};
-use manylights::scene::{Camera, Material, Scene, Triangle};
+use manylights::scene::{Material, Scene, Triangle};
 use manylights::select::SelectorKind;
 
 const RHO: f32 = 0.5;
-const CAMERA_HEIGHT: f32 = 3.0;
-const YFOV_DEG: f32 = 20.0;
-const SIZE: u32 = 24;
+/// The camera: 3.0 above the plane, 20.0° field of view, 24×24 pixels.
+const VIEW: TopView = TopView {
+    height: 3.0,
+    yfov_deg: 20.0,
+    size: 24,
+};
 
 /// Emitters at height 0.6 facing −Z (down), around the camera's field of view:
 /// (x0, y0, x1, y1, radiance).
@@ -47,13 +51,7 @@ fn scene() -> Scene {
         tris.push(Triangle::flat([a, c, b], m));
         tris.push(Triangle::flat([a, d, c], m));
     }
-    let camera = Camera::from_world_matrix(
-        "top".into(),
-        &Mat4::from_translation(Vec3::new(0.0, 0.0, CAMERA_HEIGHT)),
-        YFOV_DEG.to_radians(),
-        None,
-    )
-    .unwrap();
+    let camera = VIEW.camera();
     Scene::new(tris, materials, Some(camera)).unwrap()
 }
 
@@ -73,20 +71,7 @@ fn exitant_radiance(x: f64, y: f64) -> f64 {
 
 /// The expected pixel: the box filter's average of `radiance` over the pixel's footprint.
 fn expected_pixel(i: u32, j: u32, radiance: fn(f64, f64) -> f64) -> f64 {
-    let t = (0.5 * YFOV_DEG.to_radians() as f64).tan();
-    let h = CAMERA_HEIGHT as f64;
-    let q = 8;
-    let mut sum = 0.0;
-    for a in 0..q {
-        for b in 0..q {
-            let u = (a as f64 + 0.5) / q as f64;
-            let v = (b as f64 + 0.5) / q as f64;
-            let sx = (2.0 * (i as f64 + u) / SIZE as f64 - 1.0) * t;
-            let sy = (1.0 - 2.0 * (j as f64 + v) / SIZE as f64) * t;
-            sum += radiance(h * sx, h * sy);
-        }
-    }
-    sum / (q * q) as f64
+    VIEW.pixel(i, j, 8, radiance)
 }
 
 /// Renders the quad-lit plane and checks it against Lambert's formula.
@@ -108,15 +93,15 @@ fn check_scene(
     let prepared = PreparedScene::new(scene, selector);
     let estimator = prepared.estimator(strategy, k, n);
     let camera = prepared.scene.camera.clone().unwrap();
-    let opts = RenderOptions::new(SIZE, SIZE, spp, 11);
+    let opts = RenderOptions::new(VIEW.size, VIEW.size, spp, 11);
     let (film, stats) = render(&estimator, &camera, &opts);
     assert_eq!(stats.nan_samples + stats.inf_samples, 0);
 
     let label = format!("{selector:?} {strategy:?} {k}x{n}");
     let (mut sum, mut expected_sum, mut var_sum) = (0.0, 0.0, 0.0);
-    for j in 0..SIZE {
-        for i in 0..SIZE {
-            let px = &film.pixels[(j * SIZE + i) as usize];
+    for j in 0..VIEW.size {
+        for i in 0..VIEW.size {
+            let px = &film.pixels[(j * VIEW.size + i) as usize];
             let expected = expected_pixel(i, j, radiance);
             let sigma = px.variance_of_mean().x.sqrt();
             assert!(
@@ -154,7 +139,7 @@ fn check_scene(
 #[test]
 fn camera_sees_only_the_plane() {
     // The premise of the test: no emitter inside the view frustum at the emitters' height.
-    let reach = (CAMERA_HEIGHT - EMITTER_HEIGHT) * (0.5 * YFOV_DEG.to_radians()).tan();
+    let reach = (VIEW.height - EMITTER_HEIGHT) * (0.5 * VIEW.yfov_deg.to_radians()).tan();
     for &(x0, y0, x1, y1, _) in &QUADS {
         let outside = x0 > reach || x1 < -reach || y0 > reach || y1 < -reach;
         assert!(outside, "emitter ({x0},{y0})..({x1},{y1}) is visible");

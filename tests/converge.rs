@@ -4,23 +4,16 @@
 
 use std::path::Path;
 
-use manylights::integrator::Strategy;
+use manylights::cli::options::TEXTBOOK_DEFAULTS;
 use manylights::measure::converge::{run, ConvergeOptions};
 use manylights::measure::reference::{render_reference, ReferenceOptions, DEFAULT_ESTIMATOR};
-use manylights::measure::{EstimatorChoice, SceneSetup};
-use manylights::sampling::sampler::SamplerKind;
-use manylights::select::SelectorKind;
+use manylights::measure::SceneSetup;
 
 fn options(clamp: Option<f32>) -> ConvergeOptions {
     ConvergeOptions {
-        estimator: EstimatorChoice {
-            selector: SelectorKind::Power,
-            strategy: Strategy::LightArea,
-            k: 1,
-            n: 1,
-            sampler: SamplerKind::Independent,
-            m: 1,
-        },
+        // The textbook estimator (power + light-area, K = N = M = 1, independent numbers),
+        // which `converge` defaults to: plain Monte Carlo, MSE ∝ 1/spp.
+        estimator: TEXTBOOK_DEFAULTS.estimator,
         spp: vec![4, 8, 16, 32, 64],
         // 16 seeds over 32×32 pixels put the slope's standard error near 0.04, well inside
         // the ±0.15 tolerance.

@@ -12,6 +12,8 @@
 //! `fuzz_exr_briefly` runs a fixed number of mutations on every `cargo test`;
 //! `FUZZ_SECONDS=600 cargo test --release --test fuzz_exr -- --ignored --nocapture` runs longer.
 
+#[path = "common/byte_mutations.rs"]
+mod byte_mutations;
 #[path = "common/corpus.rs"]
 mod corpus;
 
@@ -28,6 +30,8 @@ use manylights::lights::EnvironmentMap;
 use manylights::scene::EnvironmentImage;
 use rand_core::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
+
+use byte_mutations::{below, insert_byte, ByteMutations};
 
 /// One allocation above this while reading a fuzzed input (the corpus files are < 4 kB) means a
 /// size from the file was trusted; the allocator saves the input and aborts.
@@ -99,14 +103,6 @@ fn corpus() -> Vec<Vec<u8>> {
     out
 }
 
-fn below(rng: &mut Pcg32, n: usize) -> usize {
-    if n == 0 {
-        0
-    } else {
-        rng.next_u32() as usize % n
-    }
-}
-
 const INTERESTING: [u32; 10] = [
     0,
     1,
@@ -120,37 +116,23 @@ const INTERESTING: [u32; 10] = [
     0x4000_0000,
 ];
 
+/// The shared byte mutations, tuned for EXR.
+const MUTATIONS: ByteMutations = ByteMutations {
+    interesting: &INTERESTING,
+    aligned: false,
+    max_duplicate: 128,
+    max_delete: 32,
+};
+
 fn mutate(rng: &mut Pcg32, input: &[u8]) -> Vec<u8> {
     let mut data = input.to_vec();
     for _ in 0..1 + below(rng, 4) {
+        let kind = below(rng, 8);
+        if MUTATIONS.apply(kind, rng, &mut data) {
+            continue;
+        }
         let len = data.len();
-        match below(rng, 8) {
-            0 if len > 0 => {
-                let i = below(rng, len);
-                data[i] ^= 1 << below(rng, 8);
-            }
-            1 if len > 0 => {
-                let i = below(rng, len);
-                data[i] = rng.next_u32() as u8;
-            }
-            2 if len >= 4 => {
-                let i = below(rng, len - 3);
-                let w = INTERESTING[below(rng, INTERESTING.len())];
-                data[i..i + 4].copy_from_slice(&w.to_le_bytes());
-            }
-            3 => data.truncate(below(rng, len + 1)),
-            4 if len > 0 => {
-                let start = below(rng, len);
-                let n = 1 + below(rng, (len - start).min(128));
-                let chunk = data[start..start + n].to_vec();
-                let at = below(rng, len + 1);
-                data.splice(at..at, chunk);
-            }
-            5 if len > 0 => {
-                let start = below(rng, len);
-                let n = 1 + below(rng, (len - start).min(32));
-                data.drain(start..start + n);
-            }
+        match kind {
             6 => {
                 // The data window (box2i: four i32 after its name, type and size): corners far
                 // apart or reversed, the size every reader allocates from.
@@ -162,10 +144,7 @@ fn mutate(rng: &mut Pcg32, input: &[u8]) -> Vec<u8> {
                     }
                 }
             }
-            _ => {
-                let at = below(rng, len + 1);
-                data.insert(at, rng.next_u32() as u8);
-            }
+            _ => insert_byte(rng, &mut data),
         }
     }
     data

@@ -5,22 +5,26 @@
 //! lie within 5σ of its expected value (σ from the pixels' own sample variances).
 
 use crate::lambert;
+use crate::top_view::TopView;
 
 use crate::run;
 use run::manylights;
 
 use std::path::Path;
 
-use glam::{DVec3, Mat4, Vec3};
+use glam::{DVec3, Vec3};
 use manylights::film::Film;
 use manylights::integrator::{render, PreparedScene, RenderOptions, Strategy};
-use manylights::scene::{Camera, Material, Scene, Triangle};
+use manylights::scene::{Material, Scene, Triangle};
 use manylights::select::SelectorKind;
 
 const RHO: f32 = 0.5;
-const CAMERA_HEIGHT: f32 = 3.0;
-const YFOV_DEG: f32 = 20.0;
-const SIZE: u32 = 16;
+/// The camera: 3.0 above the plane, 20.0° field of view, 16×16 pixels.
+const VIEW: TopView = TopView {
+    height: 3.0,
+    yfov_deg: 20.0,
+    size: 16,
+};
 
 /// A planar emitter: its corners (counter-clockwise seen from the side it lights) and radiance.
 #[derive(Clone, Copy)]
@@ -93,13 +97,7 @@ fn scene(plane: Material, emitters: &[Emitter]) -> Scene {
         tris.push(Triangle::flat([a, b, c], m));
         tris.push(Triangle::flat([a, c, d], m));
     }
-    let camera = Camera::from_world_matrix(
-        "top".into(),
-        &Mat4::from_translation(Vec3::new(0.0, 0.0, CAMERA_HEIGHT)),
-        YFOV_DEG.to_radians(),
-        None,
-    )
-    .unwrap();
+    let camera = VIEW.camera();
     Scene::new(tris, materials, Some(camera)).unwrap()
 }
 
@@ -129,20 +127,7 @@ fn lambert_radiance(emitters: &[Emitter], x: f64, y: f64) -> f64 {
 
 /// The expected pixel (i, j): `radiance` averaged over the pixel's footprint on the plane.
 fn expected_pixel(i: u32, j: u32, radiance: &dyn Fn(f64, f64) -> f64) -> f64 {
-    let t = (0.5 * YFOV_DEG.to_radians() as f64).tan();
-    let h = CAMERA_HEIGHT as f64;
-    let q = 6;
-    let mut sum = 0.0;
-    for a in 0..q {
-        for b in 0..q {
-            let u = (a as f64 + 0.5) / q as f64;
-            let v = (b as f64 + 0.5) / q as f64;
-            let sx = (2.0 * (i as f64 + u) / SIZE as f64 - 1.0) * t;
-            let sy = (1.0 - 2.0 * (j as f64 + v) / SIZE as f64) * t;
-            sum += radiance(h * sx, h * sy);
-        }
-    }
-    sum / (q * q) as f64
+    VIEW.pixel(i, j, 6, radiance)
 }
 
 /// Renders `scene` with one configuration (fixed seed, independent numbers).
@@ -157,7 +142,7 @@ fn render_film(
     let prepared = PreparedScene::new(scene, selector);
     let estimator = prepared.estimator(strategy, 1, 1).with_candidates(m);
     let camera = prepared.scene.camera.clone().unwrap();
-    let opts = RenderOptions::new(SIZE, SIZE, spp, seed);
+    let opts = RenderOptions::new(VIEW.size, VIEW.size, spp, seed);
     let (film, stats) = render(&estimator, &camera, &opts);
     assert_eq!(stats.nan_samples + stats.inf_samples, 0);
     film
@@ -172,9 +157,9 @@ fn check_film(
     expected_variance: &dyn Fn(u32, u32) -> f64,
 ) {
     let (mut sum, mut expected_sum, mut var_sum) = (0.0, 0.0, 0.0);
-    for j in 0..SIZE {
-        for i in 0..SIZE {
-            let px = &film.pixels[(j * SIZE + i) as usize];
+    for j in 0..VIEW.size {
+        for i in 0..VIEW.size {
+            let px = &film.pixels[(j * VIEW.size + i) as usize];
             let want = expected(i, j);
             let var = px.variance_of_mean().x + expected_variance(i, j);
             let sigma = var.sqrt();
@@ -219,10 +204,10 @@ fn check_lambert(emitters: &[Emitter], selector: SelectorKind, strategy: Strateg
 #[test]
 fn camera_sees_only_the_plane() {
     // The premise of the Lambert tests: every emitter lies outside the view frustum.
-    let tan = (0.5 * YFOV_DEG.to_radians()).tan();
+    let tan = (0.5 * VIEW.yfov_deg.to_radians()).tan();
     for e in four_quads().iter().chain(&horizon_emitters()) {
         let outside = |axis: usize| {
-            let reach = |v: &Vec3| (CAMERA_HEIGHT - v.z) * tan;
+            let reach = |v: &Vec3| (VIEW.height - v.z) * tan;
             e.corners.iter().all(|v| v[axis] > reach(v))
                 || e.corners.iter().all(|v| v[axis] < -reach(v))
         };
@@ -293,8 +278,12 @@ fn ris_on_a_glossy_plane_matches_mis() {
     };
     let s = || scene(glossy.clone(), &four_quads());
     let mis = render_film(s(), SelectorKind::Power, Strategy::Mis, 1, 2048, 5);
-    let expected = |i: u32, j: u32| mis.pixels[(j * SIZE + i) as usize].mean.x;
-    let variance = |i: u32, j: u32| mis.pixels[(j * SIZE + i) as usize].variance_of_mean().x;
+    let expected = |i: u32, j: u32| mis.pixels[(j * VIEW.size + i) as usize].mean.x;
+    let variance = |i: u32, j: u32| {
+        mis.pixels[(j * VIEW.size + i) as usize]
+            .variance_of_mean()
+            .x
+    };
     for (strategy, m) in [
         (Strategy::Ris, 8),
         (Strategy::RisMis, 1),

@@ -11,8 +11,9 @@
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 
-use glam::Vec3;
-use manylights::color::luminance;
+use crate::color;
+
+use glam::{DVec3, Vec3};
 use manylights::integrator::{render, PreparedScene, RenderOptions, Strategy};
 use manylights::lights::{Light, Lights};
 use manylights::scene::{load_gltf, CameraChoice, PunctualKind, PunctualUnits, Scene};
@@ -32,7 +33,7 @@ fn room() -> Scene {
 }
 
 fn lum(c: [f64; 3]) -> f64 {
-    luminance(Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32)) as f64
+    color::luminance(DVec3::from_array(c))
 }
 
 /// An 8-bit sRGB texel as the exporter writes it (Blender stores byte images in sRGB), linear.

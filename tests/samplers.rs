@@ -10,19 +10,25 @@
 //! spread of the S independent renders' image means (not from per-pixel sample variances,
 //! which a correlated sampler overstates).
 
-use glam::{DVec3, Mat4, Vec3};
+use crate::lambert;
+use crate::top_view::TopView;
+
+use glam::{DVec3, Vec3};
 use manylights::integrator::{render, PreparedScene, RenderOptions, Strategy};
 use manylights::measure::fit::fit_loglog;
 use manylights::sampling::rng::derive_seed;
 use manylights::sampling::sampler::SamplerKind;
-use manylights::scene::{Camera, Material, Scene, Triangle};
+use manylights::scene::{Material, Scene, Triangle};
 use manylights::select::SelectorKind;
 
 const RHO: f64 = 0.5;
 const RADIANCE: f64 = 3.0;
-const CAMERA_HEIGHT: f32 = 3.0;
-const YFOV_DEG: f32 = 20.0;
-const SIZE: u32 = 16;
+/// The camera: 3.0 above the plane, 20.0° field of view, 16×16 pixels.
+const VIEW: TopView = TopView {
+    height: 3.0,
+    yfov_deg: 20.0,
+    size: 16,
+};
 const SEEDS: u64 = 8;
 const SPPS: [u32; 5] = [4, 8, 16, 32, 64];
 /// The emitter: x0, y0, x1, y1 at height `EMITTER_HEIGHT`, facing down, beside the view cone
@@ -59,46 +65,20 @@ fn scene() -> Scene {
         Triangle::flat([e, g, f], 1),
         Triangle::flat([e, h, g], 1),
     ];
-    let camera = Camera::from_world_matrix(
-        "top".into(),
-        &Mat4::from_translation(Vec3::new(0.0, 0.0, CAMERA_HEIGHT)),
-        YFOV_DEG.to_radians(),
-        None,
-    )
-    .unwrap();
+    let camera = VIEW.camera();
     Scene::new(tris, materials, Some(camera)).unwrap()
 }
 
-/// ρ/π · E at plane point (x, y) with E = (L/2)·|Σ Θ_i (n · Γ_i)| (Lambert's polygon formula),
-/// Θ_i the angle between consecutive unit vertex directions u_i, u_{i+1}, Γ_i their unit cross.
+/// ρ/π · E at plane point (x, y), E from Lambert's polygon formula (`lambert`).
 fn exitant_radiance(x: f64, y: f64) -> f64 {
     let p = DVec3::new(x, y, 0.0);
-    let u = quad_corners(EMITTER_HEIGHT).map(|v| (v.as_dvec3() - p).normalize());
-    let sum: f64 = (0..4)
-        .map(|i| {
-            let (a, b) = (u[i], u[(i + 1) % 4]);
-            a.dot(b).clamp(-1.0, 1.0).acos() * a.cross(b).normalize().z
-        })
-        .sum();
-    0.5 * RADIANCE * sum.abs() * RHO / std::f64::consts::PI
+    let poly = quad_corners(EMITTER_HEIGHT).map(|v| v.as_dvec3());
+    lambert::irradiance(p, DVec3::Z, &poly, RADIANCE) * RHO / std::f64::consts::PI
 }
 
 /// The box filter's average of the exitant radiance over pixel (i, j)'s footprint.
 fn expected_pixel(i: u32, j: u32) -> f64 {
-    let t = (0.5 * YFOV_DEG.to_radians() as f64).tan();
-    let h = CAMERA_HEIGHT as f64;
-    let q = 16;
-    let mut sum = 0.0;
-    for a in 0..q {
-        for b in 0..q {
-            let u = (a as f64 + 0.5) / q as f64;
-            let v = (b as f64 + 0.5) / q as f64;
-            let sx = (2.0 * (i as f64 + u) / SIZE as f64 - 1.0) * t;
-            let sy = (1.0 - 2.0 * (j as f64 + v) / SIZE as f64) * t;
-            sum += exitant_radiance(h * sx, h * sy);
-        }
-    }
-    sum / (q * q) as f64
+    VIEW.pixel(i, j, 16, exitant_radiance)
 }
 
 /// Per spp: each seed's (MSE against the exact pixels, image mean).
@@ -119,7 +99,7 @@ fn measure(prepared: &PreparedScene, expected: &[f64], sampler: SamplerKind) -> 
         for seed in 0..SEEDS {
             let opts = RenderOptions {
                 sampler,
-                ..RenderOptions::new(SIZE, SIZE, spp, derive_seed(level as u64, seed))
+                ..RenderOptions::new(VIEW.size, VIEW.size, spp, derive_seed(level as u64, seed))
             };
             let (film, stats) = render(&estimator, &camera, &opts);
             assert_eq!(stats.nan_samples + stats.inf_samples, 0);
@@ -145,8 +125,8 @@ fn measure(prepared: &PreparedScene, expected: &[f64], sampler: SamplerKind) -> 
 #[test]
 fn every_sampler_is_unbiased_and_converges_at_its_rate() {
     let prepared = PreparedScene::new(scene(), SelectorKind::Power);
-    let expected: Vec<f64> = (0..SIZE)
-        .flat_map(|j| (0..SIZE).map(move |i| expected_pixel(i, j)))
+    let expected: Vec<f64> = (0..VIEW.size)
+        .flat_map(|j| (0..VIEW.size).map(move |i| expected_pixel(i, j)))
         .collect();
     let truth = expected.iter().sum::<f64>() / expected.len() as f64;
     let kinds = [

@@ -5,6 +5,8 @@
 //! refuses oversized requests.
 
 // Shared helpers, once for every module.
+#[path = "common/color.rs"]
+mod color;
 mod common;
 #[path = "common/lambert.rs"]
 mod lambert;
@@ -12,6 +14,8 @@ mod lambert;
 mod run;
 #[path = "common/shapes.rs"]
 mod shapes;
+#[path = "common/top_view.rs"]
+mod top_view;
 
 mod analytic;
 mod blender;

@@ -1,8 +1,29 @@
-//! Shared by the benches: shading points where a scene's camera sees its surfaces.
+//! Shared by the benches: the scenes they measure (a shipped one, the generated city) and
+//! shading points where a scene's camera sees its surfaces.
+
+// Every bench is a crate of its own and uses only some of these.
+#![allow(dead_code)]
+
+use std::path::Path;
 
 use manylights::accel::Accel;
-use manylights::scene::Scene;
+use manylights::gen::generate::city;
+use manylights::scene::{load_gltf, load_gltf_bytes, Scene};
 use manylights::select::ShadingContext;
+
+/// `scenes/NAME.glb` of this repository.
+pub fn shipped(name: &str) -> Scene {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("scenes/{name}.glb"));
+    load_gltf(&path, &Default::default()).expect("shipped scene loads")
+}
+
+/// The generated city with `lights` emitters, as `manylights gen city --lights N` writes it.
+pub fn generated_city(lights: usize) -> Scene {
+    let bytes = city(lights, 1).to_glb_bytes();
+    let path = Path::new("city.glb");
+    load_gltf_bytes(&bytes, path, Path::new("."), &Default::default())
+        .expect("generated city loads")
+}
 
 /// Shading points where camera rays through the pixel centres of a `width` × `height` grid hit
 /// the scene, each with its geometric normal turned toward the camera; with `lit_only`, only

@@ -44,6 +44,8 @@ pub struct BenchArgs {
     /// The configuration ratios compare against, selector:strategy:KxN[:mM][:sampler][:spp]
     /// (default: the first; without :spp, at each row's own spp; without :sampler,
     /// independent).
+    // The brackets are the help text's option syntax, not intra-doc links.
+    #[allow(rustdoc::broken_intra_doc_links)]
     #[arg(long)]
     pub baseline: Option<String>,
     /// Equal time: each configuration renders 1-spp passes until this many seconds are spent
@@ -60,6 +62,7 @@ pub struct BenchArgs {
     pub target_pixels: TargetPixels,
     /// An image rendered elsewhere, measured against the same reference and listed as an
     /// external row: NAME=IMAGE.exr[:SECONDS[:SPP]] (seconds and spp are your claim; repeatable).
+    #[allow(rustdoc::broken_intra_doc_links)]
     #[arg(long, value_parser = parse_external)]
     pub external: Vec<ExternalSpec>,
     /// Draw relMSE against seconds (log-log, one line per configuration) as SVG.

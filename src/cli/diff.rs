@@ -1,7 +1,7 @@
 //! `manylights diff A.exr B.exr`: error of image A against reference B, over all pixels and,
 //! when B carries a `surface` channel (references written by `manylights reference`), over
 //! lit-surface pixels; with B's variance layer, also corrected for B's own noise
-//! (MSE − mean Var[ref], see `measure::errors`).
+//! (MSE − mean Var\[ref], see `measure::errors`).
 
 use std::path::{Path, PathBuf};
 

@@ -5,7 +5,7 @@
 //! * [`many_lights`]: a night town with thousands of small emissive quads
 //!   (windows, street lamps, floating neon strips) hidden behind buildings,
 //!   for benchmarking light selection.
-//! * [`city`], [`grid`], [`extremes`], [`textured`]: one file each, see there.
+//! * [`city`], [`grid`], [`extremes()`], [`textured`]: one file each, see there.
 //!
 //! Every generator is a pure function of its arguments: same arguments, same bytes.
 

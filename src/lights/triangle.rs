@@ -13,7 +13,7 @@ pub const MIN_SPHERICAL_SOLID_ANGLE: f32 = 3e-4;
 /// From this Ω (sr) on, the receiver sits just above the triangle's interior, where Arvo's map
 /// loses precision and area sampling's density r²/(A·cosθ') spans many decades (pbrt-v4 falls
 /// back to area sampling here). We split the triangle at the receiver's foot instead (see
-/// [`SolidAngleView::Split`]), so solid-angle sampling stays uniform up to Ω = 2π.
+/// `SolidAngleView::Split`), so solid-angle sampling stays uniform up to Ω = 2π.
 pub const MAX_SPHERICAL_SOLID_ANGLE: f32 = 6.22;
 
 /// The triangle seen from a receiver, for uniform solid-angle sampling. A short-lived stack

@@ -5,7 +5,7 @@
 //!                   Monte Carlo rate: they may converge faster);
 //!   (b) unbiased:   at the largest spp, per channel, the mean over S seeds of the image-mean
 //!                   error ē = mean(render) − mean(reference) satisfies |ē| ≤ 5σ, with
-//!                   σ² = (Σₚ Var[renderₚ] / S + Σₚ Var[refₚ]) / P² from the per-pixel
+//!                   σ² = (Σₚ Var\[renderₚ] / S + Σₚ Var\[refₚ]) / P² from the per-pixel
 //!                   variances of the mean (pixels are independent streams; for correlated
 //!                   samplers s²/n overestimates the variance of the mean, so the check is
 //!                   conservative);
@@ -112,7 +112,7 @@ pub fn run(
     let mut levels = Vec::new();
     let (mut xs, mut ys) = (Vec::new(), Vec::new());
     let mut lit_ys = Vec::new();
-    // Sums over seeds at the largest spp: image-mean error and Σₚ Var[renderₚ], per channel.
+    // Sums over seeds at the largest spp: image-mean error and Σₚ Var\[renderₚ], per channel.
     let mut err_sum = [0.0f64; 3];
     let mut var_sum = [0.0f64; 3];
     for (level, &spp) in spps.iter().enumerate() {

@@ -2,11 +2,11 @@
 //! pixels and over lit-surface pixels (see `mask`), raw and corrected for the reference's noise.
 //!
 //! For a value i (pixel × channel) with render x, reference r, truth μ and the reference's
-//! variance of the mean v = Var[r] (its EXR variance layer), the render and the reference being
+//! variance of the mean v = Var\[r] (its EXR variance layer), the render and the reference being
 //! independent:
-//!     E[(x − r)²] = E[(x − μ)²] + Var[r],
+//!     E[(x − r)²] = E[(x − μ)²] + Var\[r],
 //! so  t = (x − r)² − v  is an unbiased estimate of the render's own squared error against the
-//! truth, and  MSE_corr = mean t = MSE − mean Var[ref]  (relMSE likewise, each term divided by
+//! truth, and  MSE_corr = mean t = MSE − mean Var\[ref]  (relMSE likewise, each term divided by
 //! r² + 1e-2). With R renders, Tᵢ = mean over renders of tᵢ; the Tᵢ of different pixels are
 //! independent (separate sample streams in render and reference), so
 //!     95% interval of MSE_corr = mean T ± 1.96 · sd(T) / √N        (N values, N large),
@@ -44,13 +44,13 @@ pub struct RegionErrors {
     pub mse_interval: Option<[f64; 2]>,
     pub relmse: f64,
     pub relmse_interval: Option<[f64; 2]>,
-    /// MSE − mean Var[ref] over the region (None without a variance layer).
+    /// MSE − mean Var\[ref] over the region (None without a variance layer).
     pub mse_corrected: Option<f64>,
     /// Its 95% interval from the spread over values (see the module header).
     pub mse_corrected_interval: Option<[f64; 2]>,
     pub relmse_corrected: Option<f64>,
     pub relmse_corrected_interval: Option<[f64; 2]>,
-    /// mean Var[ref] over the region: what the correction subtracts from the MSE.
+    /// mean Var\[ref] over the region: what the correction subtracts from the MSE.
     pub reference_variance: Option<f64>,
     /// The largest share of the region's summed squared error held by one pixel.
     pub worst_pixel_share: f64,

@@ -192,7 +192,7 @@ pub fn false_colour(t: f64) -> [u8; 3] {
 }
 
 /// Writes a false-colour PNG of the per-pixel relative error of `image` against `reference`,
-/// log-scaled over [`LOG_RANGE`]; NaN shows as the top colour.
+/// log-scaled over `LOG_RANGE`; NaN shows as the top colour.
 pub fn write_error_image(
     path: &std::path::Path,
     image: &RgbImage,

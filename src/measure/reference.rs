@@ -2,7 +2,7 @@
 //! written as EXR (mean, variance of the mean, and the `surface` channel: per pixel, the
 //! fraction of primary rays that hit a surface without emission, see `mask`) with a JSON sidecar `<file>.json` recording the
 //! scene's content hash, the options, spp, seconds and the reference's own estimated relMSE,
-//!     relMSE_ref ≈ mean over pixels and channels of Var[ref] / (ref² + 1e-2),
+//!     relMSE_ref ≈ mean over pixels and channels of Var\[ref] / (ref² + 1e-2),
 //! and found again in a cache folder next to the scene when hash and options match.
 
 use std::io::Write;

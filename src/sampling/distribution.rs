@@ -55,7 +55,7 @@ impl Distribution1D {
         self.integral
     }
 
-    /// Probability of bin i: cdf[i+1] − cdf[i].
+    /// Probability of bin i: cdf\[i+1] − cdf\[i].
     pub fn bin_probability(&self, i: usize) -> f64 {
         self.cdf[i + 1] - self.cdf[i]
     }
@@ -71,7 +71,7 @@ impl Distribution1D {
     }
 
     /// Inverts the CDF at u ∈ [0,1): (x ∈ [0,1), its bin, density). The bin is the last with
-    /// cdf[i] ≤ u, so a bin of zero probability is never returned.
+    /// cdf\[i] ≤ u, so a bin of zero probability is never returned.
     #[inline]
     pub fn sample(&self, u: f64) -> (f64, usize, f64) {
         let n = self.func.len();
@@ -122,7 +122,7 @@ impl Distribution2D {
         self.marginal.pdf(row) * self.conditional[row].pdf(column)
     }
 
-    /// Samples a row from the marginal with u[1], then a column of it with u[0]:
+    /// Samples a row from the marginal with u\[1], then a column of it with u\[0]:
     /// ((u, v) ∈ [0,1)², (column, row), p(u, v)).
     #[inline]
     pub fn sample(&self, u: [f32; 2]) -> ([f64; 2], [usize; 2], f64) {

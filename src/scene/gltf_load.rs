@@ -140,7 +140,7 @@ pub fn read_scene_file(path: &Path) -> Result<Vec<u8>, LoadError> {
 
 /// Loads the default scene of a glTF or GLB file already in memory. `path_for_messages` names
 /// the file in errors; external buffer URIs resolve relative to `base_dir` and must stay inside
-/// it (see [`super::gltf_files`]). Never panics: any input gives a scene or a [`LoadError`].
+/// it (see `gltf_files`). Never panics: any input gives a scene or a [`LoadError`].
 pub fn load_gltf_bytes(
     bytes: &[u8],
     path_for_messages: &Path,

@@ -14,6 +14,8 @@
 //! (without `--release`, so the test profile's overflow checks are on). Each panic prints the
 //! seed and iteration and writes the input to `target/fuzz-crashes/`.
 
+#[path = "../common/byte_mutations.rs"]
+mod byte_mutations;
 #[path = "../common/corpus.rs"]
 mod corpus;
 mod mutations;

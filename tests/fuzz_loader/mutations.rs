@@ -6,15 +6,9 @@ use rand_core::Rng;
 use rand_pcg::Pcg32;
 use serde_json::Value;
 
+pub(crate) use crate::byte_mutations::below;
+use crate::byte_mutations::{insert_byte, ByteMutations};
 use crate::fuzz_inputs;
-
-pub(crate) fn below(rng: &mut Pcg32, n: usize) -> usize {
-    if n == 0 {
-        0
-    } else {
-        (rng.next_u32() as usize) % n
-    }
-}
 
 const INTERESTING_U32: [u32; 12] = [
     0,
@@ -79,50 +73,28 @@ const KEYS: [&str; 16] = [
     "sparse",
 ];
 
+/// The shared byte mutations, tuned for glTF and GLB.
+const BYTE_MUTATIONS: ByteMutations = ByteMutations {
+    interesting: &INTERESTING_U32,
+    // GLB lengths and chunk headers sit at aligned offsets.
+    aligned: true,
+    max_duplicate: 256,
+    max_delete: 64,
+};
+
 fn mutate_bytes(rng: &mut Pcg32, data: &mut Vec<u8>) {
+    let kind = below(rng, 8);
+    if BYTE_MUTATIONS.apply(kind, rng, data) {
+        return;
+    }
     let len = data.len();
-    match below(rng, 8) {
-        0 if len > 0 => {
-            let i = below(rng, len);
-            data[i] ^= 1 << below(rng, 8);
-        }
-        1 if len > 0 => {
-            let i = below(rng, len);
-            data[i] = rng.next_u32() as u8;
-        }
-        2 if len >= 4 => {
-            // An interesting little-endian word, usually at an aligned offset (GLB lengths).
-            let mut i = below(rng, len - 3);
-            if !rng.next_u32().is_multiple_of(4) {
-                i &= !3;
-            }
-            let w = INTERESTING_U32[below(rng, INTERESTING_U32.len())];
-            data[i..i + 4].copy_from_slice(&w.to_le_bytes());
-        }
-        3 => data.truncate(below(rng, len + 1)),
-        4 if len > 0 => {
-            // Duplicate a chunk somewhere.
-            let start = below(rng, len);
-            let n = 1 + below(rng, (len - start).min(256));
-            let chunk = data[start..start + n].to_vec();
-            let at = below(rng, len + 1);
-            data.splice(at..at, chunk);
-        }
-        5 if len > 0 => {
-            let start = below(rng, len);
-            let n = 1 + below(rng, (len - start).min(64));
-            data.drain(start..start + n);
-        }
+    match kind {
         6 if len > 0 => {
             // Add or subtract a small amount to a byte.
             let i = below(rng, len);
             data[i] = data[i].wrapping_add((below(rng, 33) as u8).wrapping_sub(16));
         }
-        _ => {
-            let at = below(rng, len + 1);
-            let b = rng.next_u32() as u8;
-            data.insert(at, b);
-        }
+        _ => insert_byte(rng, data),
     }
 }
 

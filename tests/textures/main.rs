@@ -20,6 +20,8 @@ pub(crate) use std::path::{Path, PathBuf};
 
 pub(crate) use base64::Engine;
 pub(crate) use glam::{DVec3, Vec2};
+// Expected values take luminance from `tests/common`; the crate's is for what it computed.
+pub(crate) use crate::color::luminance as luminance64;
 pub(crate) use manylights::color::luminance;
 pub(crate) use manylights::integrator::{render, PreparedScene, RenderOptions, Strategy};
 pub(crate) use manylights::lights::{Light, Lights};
@@ -291,8 +293,4 @@ pub(crate) fn emission(uv: Vec2, wrap: (u32, u32)) -> DVec3 {
         }
     }
     EMISSIVE_FACTOR * sum
-}
-
-pub(crate) fn luminance64(c: DVec3) -> f64 {
-    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
 }

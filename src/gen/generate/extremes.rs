@@ -123,7 +123,7 @@ pub const PROBES: [Probe; 11] = [
     },
 ];
 
-/// Builds the scene: [`BOXES`] open boxes in a row along +x, the far light's
+/// Builds the scene: `BOXES` open boxes in a row along +x, the far light's
 /// plate beside them, and a camera in front looking into the openings.
 pub fn extremes() -> GltfBuilder {
     let mut b = GltfBuilder::new();

@@ -1,0 +1,258 @@
+//! Tests of `Accel`: hits against an exhaustive search on both code paths, the AVX2 node test
+//! against obvhs's, packets against single rays, and origin offsets at every scale; the
+//! random-soup fixtures are shared with `build`'s tests.
+
+use super::*;
+use crate::scene::{Material, Triangle};
+
+fn quad_scene(z: f32) -> Scene {
+    let p = [
+        Vec3::new(-1.0, -1.0, z),
+        Vec3::new(1.0, -1.0, z),
+        Vec3::new(1.0, 1.0, z),
+    ];
+    let q = [p[0], p[2], Vec3::new(-1.0, 1.0, z)];
+    let tris = vec![Triangle::flat(p, 0), Triangle::flat(q, 0)];
+    Scene::new(tris, vec![Material::default()], None).unwrap()
+}
+
+#[test]
+fn barycentrics_reconstruct_the_hit_point() {
+    let scene = quad_scene(-2.0);
+    let accel = Accel::build(&scene);
+    let origin = Vec3::new(0.3, -0.4, 1.0);
+    let dir = Vec3::new(0.1, 0.2, -1.0).normalize();
+    let hit = accel
+        .closest_hit(origin, dir, f32::INFINITY)
+        .expect("hits the quad");
+    let [p0, p1, p2] = scene.triangles[hit.triangle as usize].positions;
+    let from_bary = p0 + hit.b1 * (p1 - p0) + hit.b2 * (p2 - p0);
+    assert!((from_bary - (origin + hit.t * dir)).length() < 1e-5);
+    assert!(accel.closest_hit(origin, -dir, f32::INFINITY).is_none());
+    assert!(accel.occluded(origin, dir, 10.0));
+    assert!(!accel.occluded(origin, dir, hit.t * 0.99));
+}
+
+/// Closest hit of origin + t·dir over every triangle, computed in f64 by intersecting the
+/// plane and taking barycentrics from sub-triangle areas: (triangle, t, b1, b2).
+fn brute_force(scene: &Scene, origin: Vec3, dir: Vec3) -> Option<(u32, f64, f64, f64)> {
+    let (o, d) = (origin.as_dvec3(), dir.as_dvec3());
+    let mut best: Option<(u32, f64, f64, f64)> = None;
+    for (i, tri) in scene.triangles.iter().enumerate() {
+        let [p0, p1, p2] = tri.positions.map(|p| p.as_dvec3());
+        let n = (p1 - p0).cross(p2 - p0);
+        let t = n.dot(p0 - o) / n.dot(d);
+        if t.is_nan() || t <= 0.0 || best.is_some_and(|b| b.1 <= t) {
+            continue;
+        }
+        let x = o + t * d;
+        let area = |a: glam::DVec3, b: glam::DVec3, c: glam::DVec3| (b - a).cross(c - a).dot(n);
+        let (b1, b2) = (area(p0, x, p2) / n.dot(n), area(p0, p1, x) / n.dot(n));
+        if b1 >= 0.0 && b2 >= 0.0 && b1 + b2 <= 1.0 {
+            best = Some((i as u32, t, b1, b2));
+        }
+    }
+    best
+}
+
+pub(super) fn tris_centre(scene: &Scene, i: usize) -> Vec3 {
+    let [a, b, c] = scene.triangles[i.min(scene.triangles.len() - 1)].positions;
+    (a + b + c) / 3.0
+}
+
+/// Uniform numbers in [0, 1) from a fixed seed.
+pub(super) fn uniforms(seed: u64) -> impl FnMut() -> f32 {
+    use rand_core::{Rng, SeedableRng};
+    let mut rng = rand_pcg::Pcg32::seed_from_u64(seed);
+    move || (rng.next_u32() >> 8) as f32 / (1u32 << 24) as f32
+}
+
+/// `count` random triangles of about `size` m, centred in the cube [0, 10]³.
+pub(super) fn triangle_soup(u: &mut impl FnMut() -> f32, count: usize, size: f32) -> Scene {
+    let tris = (0..count)
+        .map(|_| {
+            let c = Vec3::new(u(), u(), u()) * 10.0;
+            let p = [0, 1, 2].map(|_| c + (Vec3::new(u(), u(), u()) - Vec3::splat(0.5)) * size);
+            Triangle::flat(p, 0)
+        })
+        .collect();
+    Scene::new(tris, vec![Material::default()], None).unwrap()
+}
+
+#[test]
+fn closest_hits_match_an_exhaustive_search_on_both_code_paths() {
+    let mut u = uniforms(11);
+    let scene = triangle_soup(&mut u, 400, 1.0);
+    let mut accel = Accel::build(&scene);
+    let (mut hits, mut compared) = (0, 0);
+    for _ in 0..2000 {
+        let origin = Vec3::new(u(), u(), u()) * 12.0 - Vec3::ONE;
+        let target = tris_centre(&scene, (u() * 400.0) as usize);
+        let dir = (target - origin).normalize();
+        let expected = brute_force(&scene, origin, dir);
+        accel.avx2 = false;
+        let obvhs_walk = accel.closest_hit(origin, dir, f32::INFINITY);
+        for avx2 in [false, has_simd_walk()] {
+            accel.avx2 = avx2;
+            let got = accel.closest_hit(origin, dir, f32::INFINITY);
+            // The two walks find the same triangle with the same (t, b1, b2).
+            assert_eq!(got, obvhs_walk);
+            compared += 1;
+            match (got, expected) {
+                (None, None) => {}
+                (Some(h), Some((i, t, b1, b2))) => {
+                    hits += 1;
+                    // A ray through a shared point may report either triangle: then the
+                    // distances agree.
+                    assert!((h.t as f64 - t).abs() < 1e-4 * (1.0 + t), "{h:?} vs t {t}");
+                    if h.triangle == i {
+                        // Compared as points, with a tolerance growing as 1/cos θ: along a
+                        // grazing ray a rounding of the origin moves the hit that much.
+                        let [p0, p1, p2] = scene.triangles[i as usize].positions;
+                        let at = |w1: f64, w2: f64| {
+                            p0.as_dvec3() + w1 * (p1 - p0).as_dvec3() + w2 * (p2 - p0).as_dvec3()
+                        };
+                        let miss = (at(h.b1 as f64, h.b2 as f64) - at(b1, b2)).length();
+                        let cos = scene.triangles[i as usize]
+                            .geometric_normal()
+                            .dot(dir)
+                            .abs() as f64;
+                        let tol = 1e-5 * (1.0 + t) / cos;
+                        assert!(miss < tol, "{h:?} vs b {b1} {b2}, cos {cos}");
+                    }
+                }
+                // Only a ray grazing an edge may disagree; none of these does.
+                (got, expected) => panic!("{origin} {dir}: {got:?} vs {expected:?}"),
+            }
+            assert_eq!(
+                accel.occluded(origin, dir, f32::INFINITY),
+                expected.is_some()
+            );
+        }
+    }
+    assert!(hits > compared / 2, "only {hits} hits of {compared}");
+}
+
+/// The AVX2 node test gives obvhs's own hit mask bit for bit, for one ray and for the rays
+/// of a packet OR-ed, on every node of a BVH, rays in random and axis-aligned directions.
+#[cfg(target_arch = "x86_64")]
+#[test]
+fn the_avx2_node_test_gives_obvhs_masks_bit_for_bit() {
+    if !has_avx2_fma() {
+        return;
+    }
+    let mut u = uniforms(9);
+    let scene = triangle_soup(&mut u, 2000, 0.8);
+    let accel = Accel::build(&scene);
+    let (mut compared, mut nonzero) = (0, 0);
+    for node in &accel.bvh.nodes {
+        // Rays toward a random point of the node's box (most hit some child), every third
+        // along an axis instead (0 · ∞ in the slab test), with random lengths.
+        let extent = Vec3::from(node.compute_extent()) * 255.0;
+        let rays: Vec<Ray> = (0..PACKET)
+            .map(|k| {
+                let origin = Vec3::new(u(), u(), u()) * 12.0 - Vec3::ONE;
+                let target = node.p + extent * Vec3::new(u(), u(), u());
+                let dir = if k % 3 == 0 {
+                    let axis = (u() * 3.0) as usize % 3;
+                    Vec3::AXES[axis] * (target - origin)[axis].signum()
+                } else {
+                    (target - origin).normalize_or(Vec3::X)
+                };
+                guarded_ray(origin, dir, 40.0 * u())
+            })
+            .collect();
+        let oct_inv4 = accel.bvh.new_traversal(rays[0].direction).oct_inv4;
+        let mut expected_or = 0;
+        // SAFETY: the CPU reported AVX2 and FMA above.
+        unsafe {
+            let boxes = node_avx2::child_boxes(node);
+            let mut lanes = std::arch::x86_64::_mm256_setzero_ps();
+            for ray in &rays {
+                let expected = node.intersect_ray(ray, oct_inv4);
+                let node_ray = node_avx2::NodeRay::new(ray);
+                let (hit, _) = node_avx2::test_children(node, &node_ray, ray.tmax);
+                let got = node_avx2::traversal_mask(node, oct_inv4, hit);
+                assert_eq!(got, expected);
+                expected_or |= expected;
+                nonzero += (expected != 0) as usize;
+                compared += 1;
+                lanes = std::arch::x86_64::_mm256_or_ps(
+                    lanes,
+                    node_avx2::hit_and_entry(node, &node_ray, ray.tmax, |axis| {
+                        node_avx2::box_planes(&boxes, &node_ray, axis)
+                    })
+                    .0,
+                );
+            }
+            assert_eq!(
+                node_avx2::traversal_mask(node, oct_inv4, lanes),
+                expected_or
+            );
+        }
+    }
+    assert!(
+        nonzero > compared / 6,
+        "{nonzero} of {compared} rays hit a child"
+    );
+}
+
+#[test]
+fn packets_find_the_hits_of_single_rays() {
+    let mut u = uniforms(5);
+    let scene = triangle_soup(&mut u, 3000, 0.6);
+    let accel = Accel::build(&scene);
+    let mut hits = 0;
+    for packet in 0..400 {
+        // Half the packets are a pixel's rays (one origin, directions within 0.01 rad), half
+        // scatter over the sphere from nearby origins; sizes 1..=PACKET.
+        let size = 1 + packet % PACKET;
+        let origin = Vec3::new(u(), u(), u()) * 12.0 - Vec3::ONE;
+        let axis = (Vec3::splat(5.0) - origin).normalize();
+        let rays: Vec<(Vec3, Vec3)> = (0..size)
+            .map(|_| {
+                let jitter = Vec3::new(u(), u(), u()) - Vec3::splat(0.5);
+                if packet % 2 == 0 {
+                    (origin, (axis + 0.02 * jitter).normalize())
+                } else {
+                    (origin + 0.1 * jitter, (jitter + 1e-3 * axis).normalize())
+                }
+            })
+            .collect();
+        let mut got = vec![None; size];
+        accel.closest_hits(&rays, &mut got);
+        for (&(o, d), got) in rays.iter().zip(&got) {
+            let alone = accel.closest_hit(o, d, f32::INFINITY);
+            assert_eq!(*got, alone, "packet {packet}: ray {o} {d}");
+            hits += alone.is_some() as usize;
+        }
+    }
+    assert!(hits > 400, "only {hits} hits");
+}
+
+#[test]
+fn offset_origins_do_not_self_intersect_at_any_scale() {
+    for scale in [1e-4f32, 1.0, 1e3, 1e6] {
+        let scene = quad_scene(0.0);
+        let tris = scene
+            .triangles
+            .iter()
+            .map(|t| Triangle::flat(t.positions.map(|p| p * scale + Vec3::splat(scale)), 0))
+            .collect();
+        let scene = Scene::new(tris, vec![Material::default()], None).unwrap();
+        let accel = Accel::build(&scene);
+        let p = Vec3::new(0.37 * scale + scale, -0.21 * scale + scale, scale);
+        let o = offset_ray_origin(p, Vec3::Z);
+        assert!(o.z > p.z, "scale {scale}: origin moved off the plane");
+        // Grazing directions leaving the surface must not hit it again.
+        for dz in [1e-3f32, 1e-2, 0.5] {
+            let d = Vec3::new(1.0, 0.3, dz).normalize();
+            assert!(
+                !accel.occluded(o, d, 10.0 * scale),
+                "scale {scale}, dz {dz}"
+            );
+        }
+        // And a ray going back through the surface does hit it (−Z has −0.0 components).
+        assert!(accel.occluded(o, -Vec3::Z, scale), "scale {scale}: o {o}");
+    }
+}
