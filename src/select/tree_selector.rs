@@ -138,7 +138,9 @@ impl BvhSelector {
     }
 
     pub fn pmf(&self, ctx: &ShadingContext, light: usize) -> f64 {
-        if self.infinite.is_empty() {
+        // A light in the tree: where the tree cannot reach the receiver its pmf is 0 already,
+        // so the root is not evaluated a second time to ask.
+        if self.infinite.is_empty() || light < self.tree.len() {
             return self.tree.pmf(ctx.p, ctx.n, light) * self.p_tree;
         }
         let p_tree = if self.tree.can_reach(ctx.p, ctx.n) {
@@ -146,9 +148,6 @@ impl BvhSelector {
         } else {
             0.0
         };
-        if light < self.tree.len() {
-            return self.tree.pmf(ctx.p, ctx.n, light) * p_tree;
-        }
         let p_infinite = 1.0 - p_tree;
         self.infinite
             .iter()

@@ -161,9 +161,11 @@ impl Decoded {
                     + f32::from(node.power_centre[a][k]) * (d.radius[k] * (1.0 / OFFSET_MAX));
             }
         }
+        // Lane k's nibble is bits 4k .. 4k + 3 of the four bytes read as one little-endian word.
+        let spread = u32::from_le_bytes(node.spread);
         for k in 0..LANES {
-            let code = (node.spread[k / 2] >> (4 * (k % 2))) & 0xF;
-            let spread = f32::from(code) * (d.radius[k] * (1.0 / SPREAD_MAX));
+            let code = (spread >> (4 * k)) & 0xF;
+            let spread = code as f32 * (d.radius[k] * (1.0 / SPREAD_MAX));
             d.spread_sq[k] = spread * spread;
         }
         for k in 0..LANES {

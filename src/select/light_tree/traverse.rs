@@ -164,11 +164,12 @@ impl LightBvh {
             let target = u * total;
             let (lane, below) = choose_lane(&importances, target);
             pmf *= importances[lane] / total;
-            u = ((target - below) / importances[lane]).clamp(0.0, LARGEST_BELOW_ONE);
             let child = self.nodes[index].child(lane);
             if child & LIGHT_LANE != 0 {
                 return (pmf > 0.0).then_some(((child & !LIGHT_LANE) as usize, pmf));
             }
+            // Rescaled only where another choice follows.
+            u = ((target - below) / importances[lane]).clamp(0.0, LARGEST_BELOW_ONE);
             index = child as usize;
             (importances, total) = self.importances(index, p, n)?;
         }
@@ -273,7 +274,10 @@ fn is_finite(p: Vec3, n: Vec3) -> bool {
 /// The lane whose part of [0, Σ I) holds `target` (lane k's part is
 /// [I_<k, I_<k + I_k)), and the sum I_<k of the parts below it. A lane of
 /// importance 0 is never returned: rounding that leaves `target` past the
-/// last part gives the last lane of positive importance.
+/// last part gives the last lane of positive importance. Branches rather than a
+/// branch-free mask of S_k > `target`: the CPU goes on down the predicted lane while the
+/// sums are still being added (the mask made `sample` 10% slower, thread CPU time on 50,000
+/// random lights).
 #[inline(always)]
 fn choose_lane(importances: &[f64; LANES], target: f64) -> (usize, f64) {
     let mut below = 0.0;

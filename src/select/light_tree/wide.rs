@@ -163,12 +163,15 @@ impl WideNode {
         node
     }
 
-    /// The lane whose id range holds `light`: the last used lane starting at
-    /// or before it.
+    /// The lane whose id range holds `light`: the last used lane starting at or before it,
+    /// found by counting the used lanes that do (lanes are in id order), eight compares at once.
+    #[inline(always)]
     pub(super) fn lane_of(&self, light: u32) -> Option<usize> {
-        self.first
-            .iter()
-            .rposition(|&first| first != EMPTY_LANE && first <= light)
+        let mut at_or_before = 0;
+        for &first in &self.first {
+            at_or_before += usize::from((first != EMPTY_LANE) & (first <= light));
+        }
+        at_or_before.checked_sub(1)
     }
 }
 
