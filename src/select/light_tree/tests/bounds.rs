@@ -261,21 +261,26 @@ fn avx2_and_portable_copies_agree_bit_for_bit() {
     }
 }
 
+/// `bounds` with every box scaled by `scale` about the origin, then moved by `offset` along
+/// each axis (cones and power unchanged).
+fn scaled(bounds: &[LightBounds], scale: f32, offset: f32) -> Vec<LightBounds> {
+    bounds
+        .iter()
+        .map(|b| LightBounds {
+            lo: b.lo * scale + Vec3::splat(offset),
+            hi: b.hi * scale + Vec3::splat(offset),
+            ..*b
+        })
+        .collect()
+}
+
 #[test]
 fn wide_lanes_hold_their_lights() {
     let mut rng = Rand::new(12);
     let mut checked = 0;
     for (scale, offset) in [(1e-4, 0.0), (1.0, 0.0), (1e6, 0.0), (1.0, 1e6), (1e-4, 1e3)] {
         let scene = random_scene(&mut rng, 3000);
-        let lights: Vec<LightBounds> = scene
-            .bounds
-            .iter()
-            .map(|b| LightBounds {
-                lo: b.lo * scale + Vec3::splat(offset),
-                hi: b.hi * scale + Vec3::splat(offset),
-                ..*b
-            })
-            .collect();
+        let lights = scaled(&scene.bounds, scale, offset);
         let (bvh, order) = LightBvh::build(&lights);
         for (id, &original) in order.iter().enumerate() {
             let light = &lights[original as usize];
@@ -333,15 +338,7 @@ fn lanes_know_their_power_centre_spread_and_power() {
     let mut checked = 0;
     for (scale, offset) in [(1e-4, 0.0), (1.0, 0.0), (1e6, 0.0), (1.0, 1e6)] {
         let scene = random_scene(&mut rng, 3000);
-        let lights: Vec<LightBounds> = scene
-            .bounds
-            .iter()
-            .map(|b| LightBounds {
-                lo: b.lo * scale + Vec3::splat(offset),
-                hi: b.hi * scale + Vec3::splat(offset),
-                ..*b
-            })
-            .collect();
+        let lights = scaled(&scene.bounds, scale, offset);
         let (bvh, order) = LightBvh::build(&lights);
         // (box centre, Φ) of every light of every lane, gathered light by light along its path.
         let mut members: std::collections::HashMap<(usize, usize), Vec<(DVec3, f64)>> =
