@@ -63,7 +63,7 @@ impl BvhSelector {
     pub fn build(lights: &mut Lights) -> BvhSelector {
         // Bounds are made as the build asks for them: a list of them would hold 52 B per light
         // through the whole build.
-        let (tree, order) = LightBvh::build_with(lights.lights.len(), |i| {
+        let binary = LightBvh::binary(lights.lights.len(), |i| {
             bounds_of(&lights.lights[i]).unwrap_or(LightBounds {
                 lo: Vec3::ZERO,
                 hi: Vec3::ZERO,
@@ -74,7 +74,10 @@ impl BvhSelector {
                 two_sided: false,
             })
         });
-        lights.reorder(&order);
+        // The lights are renumbered into leaf order (serial, ~0.1 s at 1M lights) while the
+        // binary tree is collapsed into wide nodes: neither reads what the other writes.
+        let (tree, ()) = rayon::join(|| binary.collapse(), || lights.reorder(binary.order()));
+        drop(binary);
         let tree_power: f64 = lights.lights[..tree.len()].iter().map(Light::power).sum();
         let directional: Vec<(usize, f64)> = lights
             .lights

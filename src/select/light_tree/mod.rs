@@ -64,7 +64,7 @@ use wide::*;
 
 pub use bounds::LightBounds;
 use bounds::*;
-pub use traverse::{LightBvh, RootImportances};
+pub use traverse::{BinaryTree, LightBvh, RootImportances};
 
 /// Absolute tolerance on the cosines compared in the importance, larger than the
 /// f32 rounding of those cosines: a node is only rejected with this margin.

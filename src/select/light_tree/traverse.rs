@@ -27,6 +27,32 @@ pub struct LightBvh {
     pub(super) avx2: bool,
 }
 
+/// A light tree half built ([`LightBvh::binary`]): the binary build tree, its
+/// grid, the included lights in leaf order and their power points.
+pub struct BinaryTree {
+    nodes: Vec<Node>,
+    grid: Grid,
+    order: Vec<u32>,
+    points: Vec<PowerPoint>,
+}
+
+impl BinaryTree {
+    /// The included light indices in leaf order: light `order[k]` becomes light
+    /// k of the tree (see [`LightBvh::build`]).
+    pub fn order(&self) -> &[u32] {
+        &self.order
+    }
+
+    /// The traversed tree: the binary tree collapsed into wide nodes.
+    pub fn collapse(&self) -> LightBvh {
+        LightBvh {
+            nodes: collapse(&self.nodes, &self.grid, &self.points),
+            lights: self.order.len(),
+            avx2: has_avx2_fma(),
+        }
+    }
+}
+
 impl LightBvh {
     /// Builds over `bounds` (index i = light i). Lights with phi == 0 (or
     /// negative, or any non-finite field) are left out, as are indices from
@@ -34,22 +60,22 @@ impl LightBvh {
     /// order: the caller reorders its lights so that light `order[k]` becomes
     /// light k, the id used by [`sample`](Self::sample) and [`pmf`](Self::pmf).
     pub fn build(bounds: &[LightBounds]) -> (LightBvh, Vec<u32>) {
-        LightBvh::build_with(bounds.len(), |i| bounds[i])
+        let binary = LightBvh::binary(bounds.len(), |i| bounds[i]);
+        (binary.collapse(), binary.order)
     }
 
-    /// [`build`](Self::build) over `count` lights whose bounds `bounds_of(i)` gives, asked
-    /// once per light (in parallel).
-    pub fn build_with(
-        count: usize,
-        bounds_of: impl Fn(usize) -> LightBounds + Sync,
-    ) -> (LightBvh, Vec<u32>) {
+    /// The first half of [`build`](Self::build) over `count` lights whose bounds
+    /// `bounds_of(i)` gives, asked once per light (in parallel): the binary tree
+    /// and the lights' leaf order, which the caller may apply to its lights while
+    /// [`BinaryTree::collapse`] makes the traversed tree.
+    pub fn binary(count: usize, bounds_of: impl Fn(usize) -> LightBounds + Sync) -> BinaryTree {
         let (nodes, grid, order, points) = binary_tree(count, bounds_of);
-        let tree = LightBvh {
-            nodes: collapse(&nodes, &grid, &points),
-            lights: order.len(),
-            avx2: has_avx2_fma(),
-        };
-        (tree, order)
+        BinaryTree {
+            nodes,
+            grid,
+            order,
+            points,
+        }
     }
 
     /// Whether some light in the tree may reach the upper hemisphere of a
