@@ -101,7 +101,8 @@ impl Accel {
 
     /// [`build`](Self::build) with parts of at most `part_max` triangles (see `build.rs`).
     fn build_in_parts(scene: &Scene, part_max: usize) -> Accel {
-        let bvh = build_bvh(scene, part_max);
+        let avx2 = has_simd_walk();
+        let bvh = build_bvh(scene, part_max, !avx2);
         let triangles = bvh
             .primitive_indices
             .iter()
@@ -110,7 +111,7 @@ impl Accel {
         Accel {
             bvh,
             triangles,
-            avx2: has_simd_walk(),
+            avx2,
         }
     }
 
