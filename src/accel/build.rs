@@ -381,16 +381,20 @@ mod tests {
     #[test]
     fn a_tree_joined_from_parts_passes_obvhs_validation() {
         let scene = soup();
-        let bvh = build_bvh(&scene, 600, true);
         let boxes: Vec<Aabb> = scene
             .triangles
             .iter()
             .map(|t| bvh_triangle(t.positions).aabb())
             .collect();
-        // Every node reached once, every child box inside its parent's, every primitive once.
-        let result = bvh.validate(&boxes, false);
-        assert_eq!(result.discovered_primitives.len(), scene.triangles.len());
-        assert!(result.max_depth >= 4, "depth {}", result.max_depth);
+        // With the parts' children in octant slots (obvhs's walk) and as they come (ours).
+        for ordered in [true, false] {
+            let bvh = build_bvh(&scene, 600, ordered);
+            // Every node reached once, every child box inside its parent's, every primitive
+            // once.
+            let result = bvh.validate(&boxes, false);
+            assert_eq!(result.discovered_primitives.len(), scene.triangles.len());
+            assert!(result.max_depth >= 4, "depth {}", result.max_depth);
+        }
     }
 
     #[test]
@@ -447,10 +451,15 @@ mod tests {
                 .num_threads(threads)
                 .build()
                 .unwrap();
-            pool.install(|| build_bvh(&scene, 600, true))
+            (
+                pool.install(|| build_bvh(&scene, 600, true)),
+                pool.install(|| build_bvh(&scene, 600, false)),
+            )
         };
         let (one, three) = (build(1), build(3));
-        assert!(one.nodes == three.nodes);
-        assert_eq!(one.primitive_indices, three.primitive_indices);
+        for (one, three) in [(one.0, three.0), (one.1, three.1)] {
+            assert!(one.nodes == three.nodes);
+            assert_eq!(one.primitive_indices, three.primitive_indices);
+        }
     }
 }
