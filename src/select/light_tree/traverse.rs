@@ -10,6 +10,9 @@ use rayon::prelude::*;
 use super::*;
 use crate::cpu::has_avx2_fma;
 
+/// A chosen light and its probability, or `None`.
+type Choice = Option<(usize, f64)>;
+
 /// One node's lane importances in f64 and their sum.
 type Importances = ([f64; LANES], f64);
 
@@ -135,43 +138,25 @@ impl LightBvh {
 
     /// [`sample`](Self::sample), the root's importances given or not.
     #[inline]
-    fn sample_from(
-        &self,
-        p: Vec3,
-        n: Vec3,
-        u: f64,
-        root: Option<Importances>,
-    ) -> Option<(usize, f64)> {
+    fn sample_from(&self, p: Vec3, n: Vec3, u: f64, root: Option<Importances>) -> Choice {
         #[cfg(target_arch = "x86_64")]
         if self.avx2 {
             // SAFETY: `avx2` is true only when the CPU reported AVX2 and FMA.
-            return unsafe { self.sample_avx2(p, n, u, root) };
+            return unsafe { self.walk_avx2(p, n, u, root) };
         }
-        self.sample_portable(p, n, u, root)
+        self.walk(p, n, u, root)
     }
 
     /// [`sample`](Self::sample) compiled for AVX2: the lanes in one register.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
-    unsafe fn sample_avx2(
-        &self,
-        p: Vec3,
-        n: Vec3,
-        u: f64,
-        root: Option<Importances>,
-    ) -> Option<(usize, f64)> {
-        self.sample_portable(p, n, u, root)
+    unsafe fn walk_avx2(&self, p: Vec3, n: Vec3, u: f64, root: Option<Importances>) -> Choice {
+        self.walk(p, n, u, root)
     }
 
     /// The walk of `sample`; `root`, when given, stands for the root's importances.
     #[inline(always)]
-    fn sample_portable(
-        &self,
-        p: Vec3,
-        n: Vec3,
-        u: f64,
-        root: Option<Importances>,
-    ) -> Option<(usize, f64)> {
+    fn walk(&self, p: Vec3, n: Vec3, u: f64, root: Option<Importances>) -> Choice {
         if !is_finite(p, n) {
             return None;
         }
