@@ -39,10 +39,19 @@ use super::cut::{sah_cut, Item};
 /// the thorough build took 513 ms against 159 ms for a gain within the noise, so it stops here.
 const THOROUGH_BUILD_MAX_TRIANGLES: usize = 1 << 15;
 
-/// Most triangles in a CWBVH leaf (obvhs allows 1 to 3; its presets ask for 3). Two gave 9–14%
-/// more rays/s on the town and 50k city than three, with the images unchanged; one was slower
-/// on the city (−3 to −8%) and the Cornell box (−20%) (`cargo bench --bench rays`).
-const LEAF_MAX: u32 = 2;
+/// Most triangles in a CWBVH leaf (obvhs allows 1 to 3; its presets ask for 3), for the walk
+/// the tree is built for (`ordered`: obvhs's). Our AVX2 walk tests all the leaf triangles of a
+/// node in one pass per eight: three (fewer, shallower nodes) gave 2–8% more rays/s than two
+/// on the town and 50k city (`cargo bench --bench rays`). obvhs's walk tests them one at a
+/// time: there two gave 9–14% more rays/s than three, with the images unchanged; one was slower
+/// on the city (−3 to −8%) and the Cornell box (−20%).
+fn leaf_max(ordered: bool) -> u32 {
+    if ordered {
+        2
+    } else {
+        3
+    }
+}
 
 /// Children of a CWBVH node.
 const WIDTH: usize = 8;
@@ -63,7 +72,7 @@ pub(super) fn build_bvh(scene: &Scene, part_max: usize, ordered: bool) -> CwBvh 
         return build_cwbvh_from_tris(
             &tris,
             BvhBuildParams {
-                max_prims_per_leaf: LEAF_MAX,
+                max_prims_per_leaf: leaf_max(ordered),
                 ..BvhBuildParams::very_slow_build()
             },
             &mut std::time::Duration::default(),
@@ -116,7 +125,7 @@ fn build_part(scene: &Scene, ids: &[u32], ordered: bool) -> CwBvh {
     );
     drop(boxes);
     ReinsertionOptimizer::default().run(&mut bvh2, params.reinsertion_batch_ratio, None);
-    let mut bvh = bvh2_to_cwbvh(&bvh2, LEAF_MAX, ordered, false);
+    let mut bvh = bvh2_to_cwbvh(&bvh2, leaf_max(ordered), ordered, false);
     // obvhs's leaves index its primitive list by position: the part's own 0..len.
     for p in &mut bvh.primitive_indices {
         *p = ids[*p as usize];

@@ -6,15 +6,9 @@
 //! `node_avx2`), a pixel's camera rays in one packet (`packet_avx2`); elsewhere the walk is
 //! obvhs's `traverse!` loop. All find the same hits.
 //!
-//! Triangle test (Möller & Trumbore, "Fast, Minimum Storage Ray/Triangle Intersection", 1997,
-//! in the form with the triangle's normal and one cross product with the ray): with
-//! E1 = v1 − v0, E2 = v2 − v0,
-//! n = E1 × E2, c = v0 − o, r = d × c and D = n·d, Cramer's rule on o + t·d = v0 + b1·E1 + b2·E2
-//! gives t = (c·n)/D, b1 = −(r·E2)/D, b2 = (r·E1)/D; the ray hits when b1 ≥ 0, b2 ≥ 0,
-//! b1 + b2 ≤ 1 and t lies in [tmin, tmax). D = 0 (a ray in the triangle's plane) gives an
-//! infinite or NaN weight and fails the tests.
+//! The triangles are stored eight to a block, field by field (`triangles`), and tested there.
 
-use glam::{UVec2, Vec3, Vec3A};
+use glam::{UVec2, Vec3};
 use obvhs::cwbvh::{node::CwBvhNode, CwBvh};
 use obvhs::ray::Ray;
 
@@ -22,6 +16,9 @@ use crate::cpu::has_avx2_fma;
 use crate::scene::memory::BVH_PART_MAX_TRIANGLES;
 use crate::scene::Scene;
 use build::build_bvh;
+use triangles::Triangles;
+#[cfg(target_arch = "x86_64")]
+use triangles_avx2::{nearest_triangle, RayLanes};
 
 mod build;
 mod cut;
@@ -29,6 +26,9 @@ mod cut;
 mod node_avx2;
 #[cfg(target_arch = "x86_64")]
 mod packet_avx2;
+mod triangles;
+#[cfg(target_arch = "x86_64")]
+mod triangles_avx2;
 #[cfg(target_arch = "x86_64")]
 mod walk_avx2;
 
@@ -45,51 +45,10 @@ pub struct Hit {
     pub b2: f32,
 }
 
-/// A triangle laid out for the intersection test: v0, E1 = v1 − v0, E2 = v2 − v0 (36 bytes;
-/// the unnormalised normal n = E1 × E2 is formed in each test instead of stored: 12 bytes less
-/// per triangle, neutral on the city and town in `cargo bench --bench rays`, 4–10% slower on
-/// the 32-triangle Cornell box, where every ray is all triangle tests).
-#[derive(Clone, Copy, Debug)]
-struct TestTriangle {
-    v0: Vec3,
-    e1: Vec3,
-    e2: Vec3,
-}
-
-impl TestTriangle {
-    fn new(p: [Vec3; 3]) -> Self {
-        let e1 = p[1] - p[0];
-        let e2 = p[2] - p[0];
-        TestTriangle { v0: p[0], e1, e2 }
-    }
-
-    /// n = E1 × E2, unnormalised.
-    #[inline(always)]
-    fn normal(&self) -> Vec3A {
-        Vec3A::from(self.e1).cross(Vec3A::from(self.e2))
-    }
-
-    /// (t, b1, b2) of the hit with t ∈ [ray.tmin, ray.tmax), or None (see the module header).
-    #[inline(always)]
-    fn intersect(&self, ray: &Ray) -> Option<(f32, f32, f32)> {
-        let n = self.normal();
-        let c = Vec3A::from(self.v0) - ray.origin;
-        let r = ray.direction.cross(c);
-        let inv_det = 1.0 / n.dot(ray.direction);
-        let b1 = -r.dot(Vec3A::from(self.e2)) * inv_det;
-        let b2 = r.dot(Vec3A::from(self.e1)) * inv_det;
-        if !(b1 >= 0.0 && b2 >= 0.0 && b1 + b2 <= 1.0) {
-            return None;
-        }
-        let t = c.dot(n) * inv_det;
-        (t >= ray.tmin && t < ray.tmax).then_some((t, b1, b2))
-    }
-}
-
 pub struct Accel {
     bvh: CwBvh,
     /// Triangles in BVH leaf order, so that a leaf's primitive id indexes them directly.
-    triangles: Vec<TestTriangle>,
+    triangles: Triangles,
     /// Whether the CPU has what the AVX2 walk is compiled for (`has_simd_walk`).
     avx2: bool,
 }
@@ -103,11 +62,11 @@ impl Accel {
     fn build_in_parts(scene: &Scene, part_max: usize) -> Accel {
         let avx2 = has_simd_walk();
         let bvh = build_bvh(scene, part_max, !avx2);
-        let triangles = bvh
-            .primitive_indices
-            .iter()
-            .map(|&i| TestTriangle::new(scene.triangles[i as usize].positions))
-            .collect();
+        let triangles = Triangles::new(
+            bvh.primitive_indices
+                .iter()
+                .map(|&i| scene.triangles[i as usize].positions),
+        );
         Accel {
             bvh,
             triangles,
@@ -119,7 +78,7 @@ impl Accel {
     pub fn bytes(&self) -> usize {
         std::mem::size_of_val(self.bvh.nodes.as_slice())
             + std::mem::size_of_val(self.bvh.primitive_indices.as_slice())
-            + std::mem::size_of_val(self.triangles.as_slice())
+            + self.triangles.bytes()
     }
 
     /// The nearest intersection with t in [0, tmax) along a unit direction.
@@ -179,15 +138,16 @@ impl Accel {
         len > 0.0 && self.occluded(from, d / len, len)
     }
 
-    /// The nearest-first walk of one ray: `leaf(ray, slot)` is called for each triangle slot it
-    /// reaches (it may shorten `ray.tmax`; true ends the walk); returns the ray as the walk left it.
+    /// The nearest-first walk of one ray: `leaf(ray, base, mask)` is called for the triangles of
+    /// each node's leaves it reaches (slots `base + i` for the set bits i of `mask`; it may
+    /// shorten `ray.tmax`; true ends the walk); returns the ray as the walk left it.
     ///
     /// # Safety
     /// The CPU must support the features of `has_simd_walk`.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,lzcnt")]
     #[inline]
-    unsafe fn walk_one_avx2(&self, ray: &Ray, leaf: impl FnMut(&mut Ray, u32) -> bool) -> Ray {
+    unsafe fn walk_one_avx2(&self, ray: &Ray, leaf: impl FnMut(&mut Ray, u32, u32) -> bool) -> Ray {
         let node_ray = node_avx2::NodeRay::new(ray);
         let mut walk_ray = *ray;
         walk_avx2::walk(
@@ -205,12 +165,11 @@ impl Accel {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,lzcnt")]
     unsafe fn closest_hit_avx2(&self, ray: &Ray) -> Option<Hit> {
+        let lanes = RayLanes::new(ray);
         let mut best: Option<(u32, f32, f32)> = None;
-        let walked = self.walk_one_avx2(ray, |ray, slot| {
-            if let Some((t, b1, b2)) = self.triangles[slot as usize].intersect(ray) {
-                ray.tmax = t;
-                best = Some((slot, b1, b2));
-            }
+        let walked = self.walk_one_avx2(ray, |ray, base, mask| {
+            let found = nearest_triangle(&self.triangles, &lanes, base, mask, &mut ray.tmax, false);
+            best = found.or(best);
             false
         });
         best.map(|(slot, b1, b2)| self.hit(slot, walked.tmax, b1, b2))
@@ -221,9 +180,11 @@ impl Accel {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,lzcnt")]
     unsafe fn occluded_avx2(&self, ray: &Ray) -> bool {
+        let lanes = RayLanes::new(ray);
         let mut hit = false;
-        self.walk_one_avx2(ray, |ray, slot| {
-            hit = self.triangles[slot as usize].intersect(ray).is_some();
+        self.walk_one_avx2(ray, |ray, base, mask| {
+            hit = nearest_triangle(&self.triangles, &lanes, base, mask, &mut ray.tmax, true)
+                .is_some();
             hit
         });
         hit
@@ -249,7 +210,7 @@ impl Accel {
             node_hits(node, &walk_ray, state.oct_inv4),
             {
                 let slot = state.primitive_id;
-                if let Some((t, b1, b2)) = self.triangles[slot as usize].intersect(&walk_ray) {
+                if let Some((t, b1, b2)) = self.triangles.get(slot).intersect(&walk_ray) {
                     walk_ray.tmax = t;
                     best = Some((slot, b1, b2));
                 }
@@ -286,7 +247,9 @@ impl Accel {
                 state,
                 node_hits(node, ray, state.oct_inv4),
                 {
-                    if self.triangles[state.primitive_id as usize]
+                    if self
+                        .triangles
+                        .get(state.primitive_id)
                         .intersect(ray)
                         .is_some()
                     {

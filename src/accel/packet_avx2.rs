@@ -15,7 +15,11 @@ use std::arch::x86_64::*;
 
 use obvhs::ray::Ray;
 
-use super::{node_avx2, walk_avx2, Accel, Hit, TestTriangle, PACKET};
+use glam::Vec3;
+
+use super::triangles::TestTriangle;
+use super::triangles_avx2::{moller_trumbore, Tested};
+use super::{node_avx2, walk_avx2, Accel, Hit, PACKET};
 
 /// The rays of a packet as a walk's query: their lanes, their obvhs rays (whose tmax the node
 /// test reads) and the largest tmax among them.
@@ -76,8 +80,14 @@ impl Accel {
                 (hit, entry)
             },
             |packet| packet.reach,
-            |packet, slot| {
-                let closer = packet.lanes.intersect(&self.triangles[slot as usize], slot);
+            |packet, base, mask| {
+                let mut closer = 0;
+                let mut triangles = mask;
+                while triangles != 0 {
+                    let slot = base + triangles.trailing_zeros();
+                    triangles &= triangles - 1;
+                    closer |= packet.lanes.intersect(&self.triangles.get(slot), slot);
+                }
                 if closer != 0 {
                     // The rays that found a nearer triangle now cull boxes beyond it.
                     let mut t = [0.0f32; PACKET];
@@ -137,44 +147,16 @@ impl Lanes {
     #[inline]
     unsafe fn intersect(&mut self, tri: &TestTriangle, slot: u32) -> i32 {
         let s = |x: f32| _mm256_set1_ps(x);
-        let (mul, add, sub) = (
-            |a, b| _mm256_mul_ps(a, b),
-            |a, b| _mm256_add_ps(a, b),
-            |a, b| _mm256_sub_ps(a, b),
-        );
-        // dot(a, b) = (a.x·b.x + a.y·b.y) + a.z·b.z, glam's order.
-        let dot = |a: [__m256; 3], b: [__m256; 3]| {
-            add(add(mul(a[0], b[0]), mul(a[1], b[1])), mul(a[2], b[2]))
-        };
         let n = tri.normal();
-        let n = [s(n.x), s(n.y), s(n.z)];
-        let e1 = [s(tri.e1.x), s(tri.e1.y), s(tri.e1.z)];
-        let e2 = [s(tri.e2.x), s(tri.e2.y), s(tri.e2.z)];
+        let splat = |v: Vec3| [s(v.x), s(v.y), s(v.z)];
         let c = [
-            sub(s(tri.v0.x), self.ox),
-            sub(s(tri.v0.y), self.oy),
-            sub(s(tri.v0.z), self.oz),
+            _mm256_sub_ps(s(tri.v0.x), self.ox),
+            _mm256_sub_ps(s(tri.v0.y), self.oy),
+            _mm256_sub_ps(s(tri.v0.z), self.oz),
         ];
         let d = [self.dx, self.dy, self.dz];
-        // r = d × c.
-        let r = [
-            sub(mul(d[1], c[2]), mul(c[1], d[2])),
-            sub(mul(d[2], c[0]), mul(c[2], d[0])),
-            sub(mul(d[0], c[1]), mul(c[0], d[1])),
-        ];
-        let inv_det = _mm256_div_ps(s(1.0), dot(n, d));
-        let neg = |a| _mm256_xor_ps(a, s(-0.0));
-        let b1 = mul(neg(dot(r, e2)), inv_det);
-        let b2 = mul(dot(r, e1), inv_det);
-        let t = mul(dot(c, n), inv_det);
-        let zero = _mm256_setzero_ps();
-        let inside = _mm256_and_ps(
-            _mm256_and_ps(
-                _mm256_cmp_ps::<_CMP_GE_OQ>(b1, zero),
-                _mm256_cmp_ps::<_CMP_GE_OQ>(b2, zero),
-            ),
-            _mm256_cmp_ps::<_CMP_LE_OQ>(add(b1, b2), s(1.0)),
-        );
+        let Tested { inside, t, b1, b2 } =
+            moller_trumbore([s(n.x), s(n.y), s(n.z)], splat(tri.e1), splat(tri.e2), c, d);
         let in_range = _mm256_and_ps(
             _mm256_cmp_ps::<_CMP_GE_OQ>(t, self.tmin),
             _mm256_cmp_ps::<_CMP_LT_OQ>(t, self.t),

@@ -5,8 +5,8 @@
 //!
 //! At a node, one AVX2 pass gives the children the ray enters before its current tmax and their
 //! entry distances (`node_avx2::test_children`, obvhs's slab test bit for bit). The triangles
-//! of the leaf children are tested first, which may shorten tmax (a leaf entered beyond a hit
-//! found in another is skipped); the inner children are pushed with their entry distances,
+//! of the leaf children are tested first, all at once (`triangles_avx2`, eight to a pass for
+//! one ray), which may shorten tmax; the inner children are pushed with their entry distances,
 //! farthest first, so that the nearest is popped next, and their nodes are prefetched. A popped
 //! child whose entry lies beyond the ray's tmax (a nearer hit was found since it was pushed) is
 //! dropped without reading its node. The walk finds the same nearest triangle as obvhs's: the
@@ -28,8 +28,9 @@ const STACK: usize = 512;
 /// `children(state, node)` gives the hit lanes and entry distances of a node's children (for a
 /// packet: the lanes any ray hits, at the least entry among the rays that hit them),
 /// `reach(state)` the farthest distance any ray still looks at (its tmax), and
-/// `leaf(state, slot)` tests the triangle in leaf-order `slot`, possibly shortening tmax
-/// (closest hit), and returns true to end the walk (any hit).
+/// `leaf(state, base, mask)` tests the triangles in leaf-order slots `base + i` for the set
+/// bits i of `mask` (the triangles of a node's leaf children that the query enters), possibly
+/// shortening tmax (closest hit), and returns true to end the walk (any hit).
 ///
 /// # Safety
 /// The CPU must support AVX2, FMA, POPCNT, BMI1/2 and LZCNT.
@@ -40,7 +41,7 @@ pub(super) unsafe fn walk<S>(
     state: &mut S,
     children: impl Fn(&S, &CwBvhNode) -> (__m256, __m256),
     reach: impl Fn(&S) -> f32,
-    mut leaf: impl FnMut(&mut S, u32) -> bool,
+    mut leaf: impl FnMut(&mut S, u32, u32) -> bool,
 ) {
     if nodes.is_empty() {
         return;
@@ -56,22 +57,21 @@ pub(super) unsafe fn walk<S>(
         let mut entries = [0.0f32; 8];
         _mm256_storeu_ps(entries.as_mut_ptr(), entry);
         // Leaf children (an empty slot has meta 0: no triangles): the low five bits of a leaf's
-        // meta are its first triangle's offset from the node's base, the high three its count
-        // in unary. A leaf whose entry lies beyond a hit found in a nearer leaf is skipped.
+        // meta are its first triangle's offset from the node's base (below 24: obvhs gives a
+        // node's leaves at most 24 triangles, in slot order), the high three its count in unary.
+        // The triangles of the leaves the ray enters before its tmax are tested together.
         let mut leaves = hits & !imask;
+        let mut triangles = 0u32;
         while leaves != 0 {
             let slot = leaves.trailing_zeros() as usize;
             leaves &= leaves - 1;
-            if entries[slot] > reach(state) {
-                continue;
+            if entries[slot] <= reach(state) {
+                let meta = node.child_meta[slot] as u32;
+                triangles |= ((1 << (meta >> 5).count_ones()) - 1) << (meta & 0b1_1111);
             }
-            let meta = node.child_meta[slot] as u32;
-            let first = node.primitive_base_idx + (meta & 0b1_1111);
-            for triangle in first..first + (meta >> 5).count_ones() {
-                if leaf(state, triangle) {
-                    return;
-                }
-            }
+        }
+        if triangles != 0 && leaf(state, node.primitive_base_idx, triangles) {
+            return;
         }
         let mut inner = hits & imask;
         if inner != 0 {
