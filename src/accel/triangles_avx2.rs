@@ -89,8 +89,11 @@ impl RayLanes {
 /// block of eight at a time: returns the nearest hit with t ∈ [tmin, `tmax`) as (slot, b1, b2)
 /// and lowers `tmax` to its t (of two at the same t, the lower slot); with `any`, the first hit
 /// found instead.
-#[target_feature(enable = "avx2,fma,bmi1")]
-#[inline]
+///
+/// # Safety
+/// The CPU must support AVX2 and FMA. Inlined into its callers, which are compiled for them:
+/// a call would make the walk keep its vector registers in memory across it.
+#[inline(always)]
 pub(super) unsafe fn nearest_triangle(
     triangles: &Triangles,
     ray: &RayLanes,
@@ -108,7 +111,9 @@ pub(super) unsafe fn nearest_triangle(
         let lanes = (wide >> (k * BLOCK)) as u32 & 0xFF;
         wide &= !(0xFF << (k * BLOCK));
         let block = &triangles.blocks[first + k];
-        let load = |f: &[[f32; BLOCK]; 3]| [0, 1, 2].map(|a| _mm256_load_ps(f[a].as_ptr()));
+        // The rows are 32-byte aligned (`Block`); a plain read needs no call to an intrinsic.
+        let load =
+            |f: &[[f32; BLOCK]; 3]| f.map(|row| std::ptr::read(row.as_ptr().cast::<__m256>()));
         let (v0, e1, e2) = (load(&block.v0), load(&block.e1), load(&block.e2));
         let c = [0, 1, 2].map(|a| _mm256_sub_ps(v0[a], ray.origin[a]));
         let tested = moller_trumbore(cross(e1, e2), e1, e2, c, ray.direction);
