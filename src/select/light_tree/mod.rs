@@ -39,12 +39,13 @@
 //! octahedral codes), `node` (the 32-byte build node), `split` (binned split
 //! choice), `build` (parallel subtree construction), `wide` (8-wide nodes and
 //! the collapse), `small_cut` (the collapse of small subtrees), `lanes` (the
-//! SIMD importance), `traverse` (LightBvh: build
-//! entry, sample, pmf), `tests`.
+//! SIMD importance), `near_field` (the root's distance term from a table),
+//! `traverse` (LightBvh: build entry, sample, pmf), `tests`.
 
 mod bounds;
 mod build;
 mod lanes;
+mod near_field;
 mod node;
 mod quantise;
 mod small_cut;
@@ -56,6 +57,7 @@ mod wide;
 
 use build::*;
 use lanes::*;
+use near_field::*;
 use node::*;
 use quantise::*;
 use small_cut::*;

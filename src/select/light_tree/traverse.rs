@@ -24,6 +24,8 @@ pub struct RootImportances(Importances);
 #[derive(Clone, Debug)]
 pub struct LightBvh {
     pub(super) nodes: Vec<WideNode>,
+    /// The root lanes' distance term near the lights ([`NearField`]).
+    pub(super) near: Option<NearField>,
     pub(super) lights: usize,
     /// Whether the CPU has AVX2 and FMA (`sample` and `pmf` then run a copy
     /// compiled for them).
@@ -48,8 +50,10 @@ impl BinaryTree {
 
     /// The traversed tree: the binary tree collapsed into wide nodes.
     pub fn collapse(&self) -> LightBvh {
+        let nodes = collapse(&self.nodes, &self.grid, &self.points);
         LightBvh {
-            nodes: collapse(&self.nodes, &self.grid, &self.points),
+            near: NearField::build(&nodes, &self.points),
+            nodes,
             lights: self.order.len(),
             avx2: has_avx2_fma(),
         }
@@ -257,6 +261,7 @@ impl LightBvh {
     /// Heap bytes held by the tree.
     pub fn bytes(&self) -> usize {
         self.nodes.capacity() * std::mem::size_of::<WideNode>()
+            + self.near.as_ref().map_or(0, NearField::bytes)
     }
 
     /// The lanes' importances I_k at wide node `index` in f64, and their sum
@@ -270,7 +275,11 @@ impl LightBvh {
         n: Vec3,
     ) -> Option<([f64; LANES], f64)> {
         let node = self.nodes.get(index)?;
-        let importances = importances(node, p, n).map(f64::from);
+        let near = match &self.near {
+            Some(field) if index == 0 => field.at(p),
+            _ => None,
+        };
+        let importances = importances(node, p, n, near).map(f64::from);
         let total: f64 = importances.iter().sum();
         (total > 0.0).then_some((importances, total))
     }

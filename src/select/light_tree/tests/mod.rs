@@ -197,7 +197,7 @@ pub(super) fn importance(b: &LightBounds, p: Vec3, n: Vec3) -> f32 {
     let (bvh, _) = LightBvh::build(&[*b]);
     bvh.nodes
         .first()
-        .map_or(0.0, |root| importances(root, p, n)[0])
+        .map_or(0.0, |root| importances(root, p, n, None)[0])
 }
 
 /// Interior lanes: (lane, child node index) of wide node `i`.
@@ -297,4 +297,5 @@ pub(super) fn check_frequencies(bvh: &LightBvh, p: Vec3, n: Vec3, m: usize, rng:
 
 mod bounds;
 mod collapse;
+mod near_field;
 mod sampling;
