@@ -18,7 +18,7 @@ use super::*;
 
 /// Grid points per axis.
 pub(super) const GRID: usize = 16;
-/// The grid's margin around the lights, as a share of their extent.
+/// The grid's margin around the lights, as a share of their box's size.
 const MARGIN: f32 = 0.05;
 /// A lane is summed as one point when its sphere's centre is more than this many radii away.
 const OPEN: f32 = 4.0;
@@ -34,15 +34,23 @@ pub(super) struct NearField {
 }
 
 impl NearField {
-    /// The table of `nodes`' root, on a grid over the box of the lights' `points` widened by
-    /// [`MARGIN`] of its size on each side; `None` for an empty tree or a box without volume.
+    /// The table of `nodes`' root, on a grid over the box of the lights' `points` widened on
+    /// each side by [`MARGIN`] of its size along that axis (of its largest side along an axis
+    /// without extent); `None` for an empty tree or lights all at one point.
     pub(super) fn build(nodes: &[WideNode], points: &[PowerPoint]) -> Option<NearField> {
         let root = Decoded::of(nodes.first()?);
         let (lo, hi) = points.iter().fold(
             (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)),
             |(lo, hi), p| (lo.min(p.position), hi.max(p.position)),
         );
-        let margin = (hi - lo) * MARGIN;
+        // An axis along which the lights do not spread (a ceiling of panels) gets the margin of
+        // the largest side, so that the grid is a slab rather than nothing.
+        let extent = hi - lo;
+        let margin = Vec3::select(
+            extent.cmpgt(Vec3::ZERO),
+            extent,
+            Vec3::splat(extent.max_element()),
+        ) * MARGIN;
         let (lo, hi) = (lo - margin, hi + margin);
         let cell = (hi - lo) / (GRID - 1) as f32;
         if !(cell.min_element() > 0.0 && cell.is_finite()) {

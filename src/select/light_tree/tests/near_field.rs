@@ -43,3 +43,21 @@ fn the_root_table_holds_each_lanes_power_over_squared_distance() {
     assert!(worst < (5.0f64 / 3.0).powi(2), "worst factor {worst}");
     assert!((mean - 1.0).abs() < 0.02, "mean ratio {mean}");
 }
+
+#[test]
+fn lights_in_one_plane_get_a_table_around_it() {
+    // Two panels at y = 1: no extent along y, a slab of grid there.
+    let panel = |x: f32| LightBounds {
+        lo: Vec3::new(x, 1.0, 0.0),
+        hi: Vec3::new(x + 0.5, 1.0, 0.5),
+        phi: 1.0,
+        w: Vec3::NEG_Y,
+        cos_theta_o: 1.0,
+        cos_theta_e: 0.0,
+        two_sided: false,
+    };
+    let (bvh, _) = LightBvh::build(&[panel(0.0), panel(0.3)]);
+    let field = bvh.near.as_ref().expect("a table");
+    assert!(field.at(Vec3::new(0.4, 1.0, 0.25)).is_some());
+    assert!(field.at(Vec3::new(0.4, 0.0, 0.25)).is_none());
+}
