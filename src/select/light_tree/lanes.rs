@@ -48,9 +48,9 @@
 //! 8.31 → 6.47); W²-weighted / mean / median χ² at lit-surface points: town
 //! 0.91 / 1.25 / 1.05, city 0.86 / 1.35 / 1.16. At the root, whose lanes hold thousands of
 //! lights, Φ / d² is replaced by the lane's Σ Φ_i / d_i² from a table (`near_field`), where
-//! the receiver lies inside it: W²-weighted / mean / median χ² town 0.735 / 0.956 / 0.697,
-//! city 0.941 / 1.275 / 1.108; one camera sample's lit-surface MSE (as above) town 7.05 →
-//! 5.80 (seed 2000: 7.03 → 5.87), city 7.96 → 8.12 (seeds 1000–4000: mean 8.34 → 7.63).
+//! the receiver lies inside it: W²-weighted / mean / median χ² town 0.722 / 0.953 / 0.698,
+//! city 0.887 / 1.272 / 1.136; one camera sample's lit-surface MSE (as above) town 7.05 →
+//! 5.72 (seed 2000: 7.03 → 5.77), city 7.96 → 8.28 (seeds 1000–4000: mean 8.34 → 7.54).
 
 use glam::Vec3;
 

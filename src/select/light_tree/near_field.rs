@@ -1,7 +1,7 @@
 //! The root's distance term from a table: for each root lane k, the sum
 //!     T_k(x) = Σ_{i in lane k} Φ_i / max(|x − x_i|², ε)
 //! over its lights (x_i a light's box centre, ε = ¼ of a grid cell's largest side squared), on a
-//! 16³ grid over the root lanes' spheres, read at a receiver by trilinear interpolation, in place
+//! grid of 4096 points with near-cubic cells over the lights' box, read at a receiver by trilinear interpolation, in place
 //! of the lane's Φ / d² (`lanes`). The root's lanes hold thousands of lights each, tens of metres
 //! across: one distance cannot tell a receiver beside one of its lamps from one in the middle of
 //! nowhere, and that is where most of the tree's excess error over the oracle sat (facade
@@ -16,8 +16,8 @@ use rayon::prelude::*;
 
 use super::*;
 
-/// Grid points per axis.
-pub(super) const GRID: usize = 16;
+/// Grid points in all (the table's 128 KB), spread over the axes so that cells are near cubes.
+const POINTS: usize = 4096;
 /// The grid's margin around the lights, as a share of their box's size.
 const MARGIN: f32 = 0.05;
 /// A lane is summed as one point when its sphere's centre is more than this many radii away.
@@ -26,10 +26,11 @@ const OPEN: f32 = 4.0;
 /// The table over the root's lanes (see the module header).
 #[derive(Clone, Debug)]
 pub(super) struct NearField {
-    /// Grid point (i, j, k) lies at `lo` + `cell` · (i, j, k).
+    /// Grid point (i, j, k) lies at `lo` + `cell` · (i, j, k), i < `dims[0]` and so on.
     pub(super) lo: Vec3,
     pub(super) cell: Vec3,
-    /// Point (i, j, k) at i + GRID·(j + GRID·k): the eight lanes' sums.
+    pub(super) dims: [usize; 3],
+    /// Point (i, j, k) at i + dims[0]·(j + dims[1]·k): the eight lanes' sums.
     pub(super) points: Vec<[f32; LANES]>,
 }
 
@@ -52,31 +53,42 @@ impl NearField {
             Vec3::splat(extent.max_element()),
         ) * MARGIN;
         let (lo, hi) = (lo - margin, hi + margin);
-        let cell = (hi - lo) / (GRID - 1) as f32;
-        if !(cell.min_element() > 0.0 && cell.is_finite()) {
+        let size = hi - lo;
+        if !(size.min_element() > 0.0 && size.is_finite()) {
             return None;
         }
+        let dims = dims(size);
+        let cell = size / Vec3::from_array(dims.map(|d| (d - 1) as f32));
         let floor = floor(cell);
-        let points = (0..GRID * GRID * GRID)
+        let points = (0..dims.iter().product())
             .into_par_iter()
             .map(|i| {
-                let at = [i % GRID, (i / GRID) % GRID, i / (GRID * GRID)];
+                let at = [
+                    i % dims[0],
+                    (i / dims[0]) % dims[1],
+                    i / (dims[0] * dims[1]),
+                ];
                 let x = lo + cell * Vec3::from_array(at.map(|a| a as f32));
                 std::array::from_fn(|k| lane_sum(nodes, &root, 0, k, x, floor))
             })
             .collect();
-        Some(NearField { lo, cell, points })
+        Some(NearField {
+            lo,
+            cell,
+            dims,
+            points,
+        })
     }
 
     /// The root lanes' sums at `p`, interpolated; `None` outside the grid.
     #[inline(always)]
     pub(super) fn at(&self, p: Vec3) -> Option<[f32; LANES]> {
         let t = (p - self.lo) / self.cell;
-        let last = (GRID - 1) as f32;
-        if !(t.min_element() >= 0.0 && t.max_element() <= last) {
+        let last = Vec3::from_array(self.dims.map(|d| (d - 1) as f32));
+        if !(t.min_element() >= 0.0 && t.cmple(last).all()) {
             return None;
         }
-        let base = t.floor().min(Vec3::splat(last - 1.0));
+        let base = t.floor().min(last - 1.0);
         let f = t - base;
         let [i, j, k] = base.to_array().map(|b| b as usize);
         let mut out = [0.0f32; LANES];
@@ -84,7 +96,8 @@ impl NearField {
             let (dx, dy, dz) = (corner & 1, (corner >> 1) & 1, corner >> 2);
             let w = |d: usize, f: f32| if d == 1 { f } else { 1.0 - f };
             let weight = w(dx, f.x) * w(dy, f.y) * w(dz, f.z);
-            let point = &self.points[(i + dx) + GRID * ((j + dy) + GRID * (k + dz))];
+            let [nx, ny, _] = self.dims;
+            let point = &self.points[(i + dx) + nx * ((j + dy) + ny * (k + dz))];
             for (out, &value) in out.iter_mut().zip(point) {
                 *out += weight * value;
             }
@@ -95,6 +108,23 @@ impl NearField {
     /// Heap bytes held.
     pub(super) fn bytes(&self) -> usize {
         std::mem::size_of_val(self.points.as_slice())
+    }
+}
+
+/// Grid points along each axis of a box of `size`: at least 2, at most [`POINTS`] in all, added
+/// one at a time along the axis of the longest cell.
+fn dims(size: Vec3) -> [usize; 3] {
+    let mut dims = [2usize; 3];
+    loop {
+        let cell = |a: usize| size[a] / (dims[a] - 1) as f32;
+        let axis = (0..3)
+            .max_by(|&a, &b| cell(a).total_cmp(&cell(b)))
+            .unwrap_or(0);
+        let more = dims.iter().product::<usize>() / dims[axis] * (dims[axis] + 1);
+        if more > POINTS {
+            return dims;
+        }
+        dims[axis] += 1;
     }
 }
 

@@ -19,8 +19,9 @@ fn the_root_table_holds_each_lanes_power_over_squared_distance() {
     });
     let floor = f64::from(near_field::floor(field.cell));
     let (mut sum_ratio, mut count, mut worst) = (0.0, 0, 1.0f64);
-    for point in (0..GRID * GRID * GRID).step_by(37) {
-        let at = [point % GRID, (point / GRID) % GRID, point / (GRID * GRID)];
+    let [nx, ny, nz] = field.dims;
+    for point in (0..nx * ny * nz).step_by(37) {
+        let at = [point % nx, (point / nx) % ny, point / (nx * ny)];
         let x = field.lo + field.cell * Vec3::from_array(at.map(|a| a as f32));
         for k in (0..LANES).filter(|&k| root.first[k] != EMPTY_LANE) {
             let exact: f64 = (root.first[k] as usize..ends[k])
