@@ -41,8 +41,9 @@ const THOROUGH_BUILD_MAX_TRIANGLES: usize = 1 << 15;
 
 /// Most triangles in a CWBVH leaf (obvhs allows 1 to 3; its presets ask for 3), for the walk
 /// the tree is built for (`ordered`: obvhs's). Our AVX2 walk tests all the leaf triangles of a
-/// node in one pass per eight: three (fewer, shallower nodes) gave 2–8% more rays/s than two
-/// on the town and 50k city (`cargo bench --bench rays`). obvhs's walk tests them one at a
+/// node in one pass per eight: three (fewer, shallower nodes) against two, `cargo bench --bench
+/// rays -- 'town|city50k'`, one run each: town camera / shadow / bounce / packets +3.4 / +5.2 /
+/// +3.2 / +7.2% rays/s, 50k city +2.3 / −0.1 / +7.5 / −0.1%. obvhs's walk tests them one at a
 /// time: there two gave 9–14% more rays/s than three, with the images unchanged; one was slower
 /// on the city (−3 to −8%) and the Cornell box (−20%).
 fn leaf_max(ordered: bool) -> u32 {

@@ -122,6 +122,8 @@ pub(super) fn importances(
 ) -> [f32; LANES] {
     let receiver = n != Vec3::ZERO;
     let lanes = Decoded::of(node);
+    // A flag for the node and a plain array, not an Option per lane: the lanes then stay one
+    // SIMD computation (an Option per lane made criterion's `sample` 980 ns against 315).
     let (use_near, near) = (near.is_some(), near.unwrap_or([0.0; LANES]));
     let mut out = [0.0; LANES];
     for (k, out) in out.iter_mut().enumerate() {
