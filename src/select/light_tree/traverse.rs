@@ -50,9 +50,9 @@ impl BinaryTree {
 
     /// The traversed tree: the binary tree collapsed into wide nodes.
     pub fn collapse(&self) -> LightBvh {
-        let nodes = collapse(&self.nodes, &self.grid, &self.points);
+        let (nodes, reach) = collapse(&self.nodes, &self.grid, &self.points);
         LightBvh {
-            near: NearField::build(&nodes, &self.points),
+            near: NearField::build(&nodes, &reach, &self.points),
             nodes,
             lights: self.order.len(),
             avx2: has_avx2_fma(),

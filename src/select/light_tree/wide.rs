@@ -101,14 +101,16 @@ impl WideNode {
     }
 
     /// The node of `lanes` (binary nodes with their ranges; `points` the lights' power points
-    /// in leaf order), interior lanes' nodes numbered from `children` on.
+    /// in leaf order), interior lanes' nodes numbered from `children` on, and each lane's
+    /// [`Reach`].
     fn new(
         binary: &[Node],
         grid: &Grid,
         points: &[PowerPoint],
         lanes: &[Lane],
         children: u32,
-    ) -> WideNode {
+    ) -> (WideNode, Reach) {
+        let mut reach = [0.0; LANES];
         let mut node = WideNode::empty();
         let mut bounds = [(binary[0].bounds(grid), Vec3::ZERO, 0.0); LANES];
         let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
@@ -138,10 +140,17 @@ impl WideNode {
             }
             node.radius[k] = encode_radius(*radius, radius_step);
             let sphere_centre = centres.decode(*centre).as_dvec3();
-            let (power, spread) =
+            let (power, spread, (lo, hi)) =
                 power_moments(&points[lane.first..lane.first + lane.count], sphere_centre);
             let coded_radius = f32::from(node.radius[k]) * radius_step;
             let offset = encode_offset(power - sphere_centre, coded_radius);
+            // The farthest corner of the box of the lights' centres from the coded power centre.
+            let coded_offset =
+                DVec3::from_array(offset.map(f64::from)) * f64::from(coded_radius / OFFSET_MAX);
+            reach[k] = (lo - coded_offset)
+                .abs()
+                .max((hi - coded_offset).abs())
+                .length() as f32;
             for (field, code) in node.power_centre.iter_mut().zip(offset) {
                 field[k] = code;
             }
@@ -160,7 +169,7 @@ impl WideNode {
                 node.interior |= 1 << k;
             }
         }
-        node
+        (node, reach)
     }
 
     /// The lane whose id range holds `light`: the last used lane starting at or before it,
@@ -184,6 +193,11 @@ pub(super) struct Lane {
     pub(super) count: usize,
 }
 
+/// For each lane of a wide node, a bound R on the distance of its lights' box centres from its
+/// coded power centre (that of the farthest corner of the centres' box), which the root's table
+/// ([`super::near_field`]) reads; 0 in unused lanes.
+pub(super) type Reach = [f32; LANES];
+
 /// Below lanes of fewer lights the subtrees are collapsed by one rayon task each.
 const PARALLEL_COLLAPSE_MIN: usize = 1 << 14;
 
@@ -191,10 +205,14 @@ const PARALLEL_COLLAPSE_MIN: usize = 1 << 14;
 /// and the nodes of a node's interior lanes are consecutive, after it. The top is collapsed
 /// first, down to lanes of fewer than [`PARALLEL_COLLAPSE_MIN`] lights, whose nodes get their
 /// places there; the subtrees below those lanes are counted, given their ranges of the list,
-/// and collapsed into them in parallel.
-pub(super) fn collapse(binary: &[Node], grid: &Grid, points: &[PowerPoint]) -> Vec<WideNode> {
+/// and collapsed into them in parallel. Also returns each node's [`Reach`], in the same order.
+pub(super) fn collapse(
+    binary: &[Node],
+    grid: &Grid,
+    points: &[PowerPoint],
+) -> (Vec<WideNode>, Vec<Reach>) {
     if binary.is_empty() {
-        return Vec::new();
+        return (Vec::new(), Vec::new());
     }
     let root = Lane {
         index: 0,
@@ -204,6 +222,7 @@ pub(super) fn collapse(binary: &[Node], grid: &Grid, points: &[PowerPoint]) -> V
     // (lane, index of its node) of each subtree left for later.
     let mut deferred = Vec::new();
     let mut wide = vec![WideNode::empty()];
+    let mut reach = vec![[0.0; LANES]];
     let mut pending = vec![(root, 0)];
     while let Some((start, at)) = pending.pop() {
         let lanes = open(binary, start);
@@ -211,13 +230,14 @@ pub(super) fn collapse(binary: &[Node], grid: &Grid, points: &[PowerPoint]) -> V
         for &lane in interior(binary, &lanes) {
             let child = (lane, wide.len());
             wide.push(WideNode::empty());
+            reach.push([0.0; LANES]);
             if lane.count < PARALLEL_COLLAPSE_MIN {
                 deferred.push(child);
             } else {
                 pending.push(child);
             }
         }
-        wide[at] = WideNode::new(binary, grid, points, &lanes, children);
+        (wide[at], reach[at]) = WideNode::new(binary, grid, points, &lanes, children);
     }
     // The nodes below each deferred lane's own.
     let counts: Vec<usize> = deferred
@@ -229,16 +249,18 @@ pub(super) fn collapse(binary: &[Node], grid: &Grid, points: &[PowerPoint]) -> V
     let (top, below): (usize, usize) = (wide.len(), counts.iter().sum());
     wide.reserve_exact(below);
     wide.resize(top + below, WideNode::empty());
+    reach.resize(top + below, [0.0; LANES]);
     let mut blocks = Vec::with_capacity(deferred.len());
-    let mut rest = &mut wide[top..];
+    let (mut rest, mut rest_reach) = (&mut wide[top..], &mut reach[top..]);
     let mut base = top;
     for (&(lane, at), &count) in deferred.iter().zip(&counts) {
         let (block, after) = rest.split_at_mut(count);
-        blocks.push((lane, at, block, base as u32));
-        rest = after;
+        let (block_reach, after_reach) = rest_reach.split_at_mut(count);
+        blocks.push((lane, at, (block, block_reach), base as u32));
+        (rest, rest_reach) = (after, after_reach);
         base += count;
     }
-    let roots: Vec<(usize, WideNode)> = blocks
+    let roots: Vec<(usize, (WideNode, Reach))> = blocks
         .into_par_iter()
         .map(|(lane, at, block, base)| {
             let node = collapse_block(binary, grid, points, lane, block, base);
@@ -246,9 +268,9 @@ pub(super) fn collapse(binary: &[Node], grid: &Grid, points: &[PowerPoint]) -> V
         })
         .collect();
     for (at, node) in roots {
-        wide[at] = node;
+        (wide[at], reach[at]) = node;
     }
-    wide
+    (wide, reach)
 }
 
 /// A light's box centre and power Φ > 0: what a lane's power centre averages.
@@ -264,16 +286,23 @@ const PARALLEL_POWER_MIN: usize = 1 << 16;
 /// The power centre c = Σ Φ_i x_i / Σ Φ_i of `points` and their spread about it, the RMS
 /// distance σ = (Σ Φ_i |x_i − c|² / Σ Φ_i)^½, summed in f64 relative to `origin` (a point
 /// near them: the lane's sphere centre) so that σ² = E|x − o|² − |c − o|² keeps its digits far
-/// from the world's origin.
-fn power_moments(points: &[PowerPoint], origin: DVec3) -> (DVec3, f64) {
-    let add = |(first, second, phi): (DVec3, f64, f64), p: &PowerPoint| {
+/// from the world's origin; and the points' box relative to `origin`.
+fn power_moments(points: &[PowerPoint], origin: DVec3) -> (DVec3, f64, (DVec3, DVec3)) {
+    type Sums = (DVec3, f64, f64, DVec3, DVec3);
+    let add = |(first, second, phi, lo, hi): Sums, p: &PowerPoint| {
         let w = f64::from(p.phi);
         let x = p.position.as_dvec3() - origin;
-        (first + x * w, second + x.length_squared() * w, phi + w)
+        (
+            first + x * w,
+            second + x.length_squared() * w,
+            phi + w,
+            lo.min(x),
+            hi.max(x),
+        )
     };
-    let merge = |a: (DVec3, f64, f64), b: (DVec3, f64, f64)| (a.0 + b.0, a.1 + b.1, a.2 + b.2);
-    let zero = || (DVec3::ZERO, 0.0, 0.0);
-    let (first, second, phi) = if points.len() >= PARALLEL_POWER_MIN {
+    let merge = |a: Sums, b: Sums| (a.0 + b.0, a.1 + b.1, a.2 + b.2, a.3.min(b.3), a.4.max(b.4));
+    let zero = || (DVec3::ZERO, 0.0, 0.0, DVec3::MAX, DVec3::MIN);
+    let (first, second, phi, lo, hi) = if points.len() >= PARALLEL_POWER_MIN {
         points.par_iter().fold(zero, add).reduce(zero, merge)
     } else {
         points.iter().fold(zero(), add)
@@ -282,6 +311,7 @@ fn power_moments(points: &[PowerPoint], origin: DVec3) -> (DVec3, f64) {
     (
         origin + mean,
         (second / phi - mean.length_squared()).max(0.0).sqrt(),
+        (lo, hi),
     )
 }
 
@@ -290,19 +320,19 @@ fn interior<'a>(binary: &'a [Node], lanes: &'a [Lane]) -> impl Iterator<Item = &
     lanes.iter().filter(|lane| !binary[lane.index].is_leaf())
 }
 
-/// Collapses the subtree of interior lane `start`: returns its node and writes the nodes
-/// below it into `block` (exactly their number, from [`count_wide`]), whose first node has
-/// index `base` in the whole list.
+/// Collapses the subtree of interior lane `start`: returns its node and [`Reach`] and writes
+/// the nodes below it and theirs into `block` (exactly their number, from [`count_wide`]),
+/// whose first node has index `base` in the whole list.
 fn collapse_block(
     binary: &[Node],
     grid: &Grid,
     points: &[PowerPoint],
     start: Lane,
-    block: &mut [WideNode],
+    (block, block_reach): (&mut [WideNode], &mut [Reach]),
     base: u32,
-) -> WideNode {
+) -> (WideNode, Reach) {
     let mut used = 0;
-    let mut root = WideNode::empty();
+    let mut root = (WideNode::empty(), [0.0; LANES]);
     let mut pending = vec![(start, None)];
     while let Some((start, at)) = pending.pop() {
         let lanes = open(binary, start);
@@ -313,7 +343,7 @@ fn collapse_block(
         }
         let node = WideNode::new(binary, grid, points, &lanes, children);
         match at {
-            Some(at) => block[at] = node,
+            Some(at) => (block[at], block_reach[at]) = node,
             None => root = node,
         }
     }

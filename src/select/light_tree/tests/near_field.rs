@@ -2,6 +2,7 @@
 //! the lane's lights one by one, in f64, from their bounds as given to the build.
 
 use super::*;
+use crate::select::light_tree::traverse::binary_tree;
 
 #[test]
 fn the_root_table_holds_each_lanes_power_over_squared_distance() {
@@ -39,8 +40,9 @@ fn the_root_table_holds_each_lanes_power_over_squared_distance() {
     }
     let mean = sum_ratio / count as f64;
     println!("{count} sums: mean ratio {mean:.4}, worst factor {worst:.3}");
-    // Far clusters are counted at their power centre (distance > 4 radii: each light's 1/d² is
-    // within a factor (5/3)² of the centre's), the rest exactly up to Φ's bfloat16 coding.
+    // Far clusters are counted at their power centre (beyond 4 R, each light's 1/d² within a
+    // factor (4/3)² of the centre's; beyond 4 sphere radii within (5/3)²), small ones (R ≤ a
+    // quarter cell) within 2.25 of it; the rest exactly up to Φ's bfloat16 coding.
     assert!(worst < (5.0f64 / 3.0).powi(2), "worst factor {worst}");
     assert!((mean - 1.0).abs() < 0.02, "mean ratio {mean}");
 }
@@ -61,4 +63,66 @@ fn lights_in_one_plane_get_a_table_around_it() {
     let field = bvh.near.as_ref().expect("a table");
     assert!(field.at(Vec3::new(0.4, 1.0, 0.25)).is_some());
     assert!(field.at(Vec3::new(0.4, 0.0, 0.25)).is_none());
+}
+
+#[test]
+fn each_lanes_reach_bounds_its_lights_distance_from_its_power_centre() {
+    let mut rng = Rand::new(23);
+    let scene = random_scene(&mut rng, 3000);
+    let (binary, grid, order, points) = binary_tree(scene.bounds.len(), |i| scene.bounds[i]);
+    let (nodes, reach) = collapse(&binary, &grid, &points);
+    assert_eq!(reach.len(), nodes.len());
+    // Every lane's lights one by one from their bounds, from the root down: (node, end of its
+    // id range); a lane's lights run from its first id to the next used lane's.
+    let (mut lanes, mut sum_slack) = (0, 0.0f64);
+    let mut pending = vec![(0usize, order.len())];
+    while let Some((index, end)) = pending.pop() {
+        let node = &nodes[index];
+        let decoded = Decoded::of(node);
+        let used: Vec<usize> = (0..LANES)
+            .filter(|&k| node.first[k] != EMPTY_LANE)
+            .collect();
+        for (i, &k) in used.iter().enumerate() {
+            let lane_end = used
+                .get(i + 1)
+                .map_or(end, |&next| node.first[next] as usize);
+            let c = Vec3::new(
+                decoded.power_centre[0][k],
+                decoded.power_centre[1][k],
+                decoded.power_centre[2][k],
+            );
+            let farthest = order[node.first[k] as usize..lane_end]
+                .iter()
+                .map(|&light| {
+                    let b = &scene.bounds[light as usize];
+                    ((b.lo + b.hi) * 0.5).distance(c)
+                })
+                .fold(0.0f32, f32::max);
+            let r = reach[index][k];
+            // Up to the f32 rounding of the decoded centre (a few ulps of its coordinates).
+            let rounding = 8.0 * f32::EPSILON * (c.abs().max_element() + farthest);
+            assert!(
+                r >= farthest - rounding,
+                "lane {index}/{k}: reach {r} < farthest light {farthest}"
+            );
+            // A bound, not much above the truth: at most the lane's sphere diameter (plus the
+            // power centre's coding step, √3 / 2 of radius / 127).
+            assert!(
+                r <= 2.0 * decoded.radius[k] * 1.01,
+                "lane {index}/{k}: reach {r}, farthest {farthest}, radius {}",
+                decoded.radius[k]
+            );
+            sum_slack += f64::from(r - farthest) / f64::from(decoded.radius[k].max(1e-30));
+            lanes += 1;
+            let child = node.child(k);
+            if child & LIGHT_LANE == 0 {
+                pending.push((child as usize, lane_end));
+            }
+        }
+    }
+    println!(
+        "{lanes} lanes, mean (reach − farthest) / radius {:.3}",
+        sum_slack / lanes as f64
+    );
+    assert!(lanes > 3000);
 }
