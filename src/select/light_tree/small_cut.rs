@@ -125,6 +125,14 @@ impl Table {
     }
 }
 
+/// How many wide nodes the subtree of interior binary node `start` (at most [`SMALL_SUBTREE`]
+/// lights) makes when collapsed by [`small_cut`], its own included: its cut's count, which the
+/// cuts below reach (each is the fewest for its own subtree, the table's subproblem; the lanes
+/// opened afterwards add none).
+pub(super) fn small_count(binary: &[Node], start: Lane) -> usize {
+    Table::new(binary, start).get(start.index).nodes as usize + 1
+}
+
 /// The lanes of the wide node rooted at interior binary node `start` (at most
 /// [`SMALL_SUBTREE`] lights): the cut with the fewest wide nodes in all, in light-id order;
 /// lanes left over then open, largest [`opening_priority`] first, the interior lanes whose two

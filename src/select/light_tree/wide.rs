@@ -358,8 +358,12 @@ pub(super) fn count_wide(binary: &[Node], start: Lane) -> usize {
     let mut pending = vec![start];
     while let Some(start) = pending.pop() {
         for &lane in interior(binary, &open(binary, start)) {
-            count += 1;
-            pending.push(lane);
+            if lane.count <= SMALL_SUBTREE {
+                count += small_count(binary, lane);
+            } else {
+                count += 1;
+                pending.push(lane);
+            }
         }
     }
     count

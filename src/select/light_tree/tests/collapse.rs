@@ -80,3 +80,33 @@ fn as_lanes(binary: &[Node], x: usize) -> [Option<usize>; LANES] {
     lanes[0] = Some(fewest_by_enumeration(binary, x));
     lanes
 }
+
+#[test]
+fn every_wide_node_is_reached_once_from_the_root() {
+    // The collapse sizes each subtree's block by counting first (small subtrees by their cut's
+    // node count); a miscount would leave unreached nodes or write one subtree over another.
+    let mut rng = Rand::new(29);
+    for count in [2, 9, 17, 300, 3000, 20_000] {
+        let scene = random_scene(&mut rng, count);
+        let (binary, grid, _, points) = binary_tree(scene.bounds.len(), |i| scene.bounds[i]);
+        let (nodes, _) = collapse(&binary, &grid, &points);
+        let mut reached = vec![0u32; nodes.len()];
+        let mut pending = vec![0usize];
+        while let Some(index) = pending.pop() {
+            reached[index] += 1;
+            let node = &nodes[index];
+            for k in (0..LANES).filter(|&k| node.first[k] != EMPTY_LANE) {
+                let child = node.child(k);
+                if child & LIGHT_LANE == 0 {
+                    pending.push(child as usize);
+                }
+            }
+        }
+        assert!(
+            reached.iter().all(|&r| r == 1),
+            "{count} lights: {} nodes, {} reached once",
+            nodes.len(),
+            reached.iter().filter(|&&r| r == 1).count()
+        );
+    }
+}
