@@ -247,9 +247,10 @@ pub(super) fn collapse(
     // Sized once: the nodes are over-aligned, so growing or shrinking the list would copy it
     // (the system allocator's realloc does not keep a 64-byte alignment).
     let (top, below): (usize, usize) = (wide.len(), counts.iter().sum());
+    // Filled in parallel: 64 MB at 1M lights, which took about 20 ms on one core.
     wide.reserve_exact(below);
-    wide.resize(top + below, WideNode::empty());
-    reach.resize(top + below, [0.0; LANES]);
+    wide.par_extend(rayon::iter::repeat_n(WideNode::empty(), below));
+    reach.par_extend(rayon::iter::repeat_n([0.0; LANES], below));
     let mut blocks = Vec::with_capacity(deferred.len());
     let (mut rest, mut rest_reach) = (&mut wide[top..], &mut reach[top..]);
     let mut base = top;
