@@ -191,7 +191,6 @@ impl Decoded {
 }
 
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
 fn lane(
     node: &Decoded,
     k: usize,

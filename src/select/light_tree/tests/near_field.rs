@@ -1,5 +1,7 @@
 //! The root's table: at its grid points each root lane's Σ Φ_i / max(d_i², ε), here summed over
-//! the lane's lights one by one, in f64, from their bounds as given to the build.
+//! the lane's lights one by one, in f64, from their bounds as given to the build; read between
+//! them by trilinear interpolation; and each lane's bound R on its lights' distance from its
+//! power centre, against the lights one by one.
 
 use super::*;
 use crate::select::light_tree::traverse::binary_tree;
@@ -45,6 +47,41 @@ fn the_root_table_holds_each_lanes_power_over_squared_distance() {
     // quarter cell) within 2.25 of it; the rest exactly up to Φ's bfloat16 coding.
     assert!(worst < (5.0f64 / 3.0).powi(2), "worst factor {worst}");
     assert!((mean - 1.0).abs() < 0.02, "mean ratio {mean}");
+}
+
+#[test]
+fn the_table_is_read_between_grid_points_by_trilinear_interpolation() {
+    let mut rng = Rand::new(19);
+    let scene = random_scene(&mut rng, 500);
+    let (bvh, _) = LightBvh::build(&scene.bounds);
+    let field = bvh.near.as_ref().expect("a table");
+    let [nx, ny, _] = field.dims;
+    let value = |i: usize, j: usize, k: usize| field.points[i + nx * (j + ny * k)];
+    let position = |t: Vec3| field.lo + field.cell * t;
+    let close = |a: f32, b: f32| (a - b).abs() <= 1e-5 * a.abs().max(b.abs());
+    for (i, j, k) in [(0, 0, 0), (1, 2, 3), (3, 1, 2)] {
+        let corner = value(i, j, k);
+        let at = field.at(position(Vec3::new(i as f32, j as f32, k as f32)));
+        let at = at.expect("a grid point lies inside the grid");
+        assert!(
+            (0..LANES).all(|l| close(at[l], corner[l])),
+            "{at:?} {corner:?}"
+        );
+        // A quarter of the way along x and halfway along y, z: the weights of the eight corners.
+        let t = Vec3::new(i as f32 + 0.25, j as f32 + 0.5, k as f32 + 0.5);
+        let at = field.at(position(t)).expect("inside");
+        for (l, &read) in at.iter().enumerate() {
+            let mut expected = 0.0;
+            for (dx, wx) in [(0, 0.75), (1, 0.25)] {
+                for dy in 0..2 {
+                    for dz in 0..2 {
+                        expected += wx * 0.25 * value(i + dx, j + dy, k + dz)[l];
+                    }
+                }
+            }
+            assert!(close(read, expected), "lane {l}: {read} against {expected}");
+        }
+    }
 }
 
 #[test]
