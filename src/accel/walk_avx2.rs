@@ -4,7 +4,7 @@
 //! ray's octant and re-enters a child after a nearer hit has put it out of reach.
 //!
 //! At a node, one AVX2 pass gives the children the ray enters before its current tmax and their
-//! entry distances (`node_avx2::test_children`, obvhs's slab test bit for bit). The triangles
+//! entry distances (`node_avx2::test_children`, obvhs's slab test in fewer steps). The triangles
 //! of the leaf children are tested first, all at once (`triangles_avx2`, eight to a pass for
 //! one ray), which may shorten tmax; the inner children are pushed with their entry distances,
 //! farthest first, so that the nearest is popped next, and their nodes are prefetched. A popped
