@@ -10,8 +10,9 @@
 //! farthest first, so that the nearest is popped next, and their nodes are prefetched. A popped
 //! child whose entry lies beyond the ray's tmax (a nearer hit was found since it was pushed) is
 //! dropped without reading its node. The walk finds the same nearest triangle as obvhs's: the
-//! same children are hit, and a dropped child holds nothing nearer than tmax; only two triangles
-//! at exactly the same distance may be found in the other order.
+//! same children are hit (but for a box corner grazed within a few ulps, see `node_avx2`), and a
+//! dropped child holds nothing nearer than tmax; only two triangles at exactly the same distance
+//! may be found in the other order.
 
 use std::arch::x86_64::*;
 use std::mem::MaybeUninit;
