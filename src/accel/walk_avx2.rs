@@ -6,13 +6,17 @@
 //! At a node, one AVX2 pass gives the children the ray enters before its current tmax and their
 //! entry distances (`node_avx2::test_children`, obvhs's slab test in fewer steps). The triangles
 //! of the leaf children are tested first, all at once (`triangles_avx2`, eight to a pass for
-//! one ray), which may shorten tmax; the inner children are pushed with their entry distances,
-//! farthest first, so that the nearest is popped next, and their nodes are prefetched. A popped
-//! child whose entry lies beyond the ray's tmax (a nearer hit was found since it was pushed) is
-//! dropped without reading its node. The walk finds the same nearest triangle as obvhs's: the
-//! same children are hit (but for a box corner grazed within a few ulps, see `node_avx2`), and a
-//! dropped child holds nothing nearer than tmax; only two triangles at exactly the same distance
-//! may be found in the other order.
+//! one ray), which may shorten tmax. Of the inner children hit, the nearest is visited next and
+//! the others are pushed with their entry distances, nearest on top, their nodes prefetched:
+//! one child goes straight to the next visit, two need one compare and one push, more are
+//! sorted into the stack by insertion and the nearest popped. A child whose entry lies beyond
+//! the ray's tmax (a nearer hit was found since the node test) is dropped without reading its
+//! node, when it would be visited or popped; that test is a branch, so the next node's load
+//! need not wait for the leaf's triangle tests. The order is the one a push of all children
+//! sorted by entry and a pop would give (two at the same entry: the higher slot first). The
+//! walk finds the same nearest triangle as obvhs's: the same children are hit (but for a box
+//! corner grazed within a few ulps, see `node_avx2`), and a dropped child holds nothing nearer
+//! than tmax; only two triangles at exactly the same distance may be found in the other order.
 
 use std::arch::x86_64::*;
 use std::mem::MaybeUninit;
@@ -53,10 +57,9 @@ pub(super) unsafe fn walk<S>(
     loop {
         let node = &nodes[index as usize];
         let (hit, entry) = children(state, node);
-        let hits = _mm256_movemask_ps(hit) as u32;
         let imask = node.imask as u32;
-        let mut entries = [0.0f32; 8];
-        _mm256_storeu_ps(entries.as_mut_ptr(), entry);
+        let hits = _mm256_movemask_ps(hit) as u32;
+        let mut inner = hits & imask;
         // Leaf children (an empty slot has meta 0: no triangles): the low five bits of a leaf's
         // meta are its first triangle's offset from the node's base (below 24: obvhs gives a
         // node's leaves at most 24 triangles, in slot order), the high three its count in unary.
@@ -73,29 +76,64 @@ pub(super) unsafe fn walk<S>(
         if triangles != 0 && leaf(state, node.primitive_base_idx, triangles) {
             return;
         }
-        let mut inner = hits & imask;
+        // A child's node follows the node's inner children in lower slots.
+        let child = |slot: u32| node.child_base_idx + _bzhi_u32(imask, slot).count_ones();
+        let mut entries = [0.0f32; 8];
+        _mm256_storeu_ps(entries.as_mut_ptr(), entry);
+        // The next node is chosen from the node test alone and kept only if still within
+        // reach (a nearer hit in the leaves may have moved it out) by a branch, which the CPU
+        // predicts, so its load does not wait for the triangle tests.
         if inner != 0 {
-            let first = len;
-            while inner != 0 {
-                let slot = inner.trailing_zeros();
-                inner &= inner - 1;
-                let child = node.child_base_idx + (imask & ((1 << slot) - 1)).count_ones();
-                let t = entries[slot as usize];
-                let ahead = nodes.as_ptr().wrapping_add(child as usize).cast::<i8>();
-                _mm_prefetch::<_MM_HINT_T0>(ahead);
-                _mm_prefetch::<_MM_HINT_T0>(ahead.wrapping_add(64));
-                // Insertion by falling distance: the nearest ends on top.
-                let mut k = len;
-                while k > first {
-                    let (_, above) = stack[k - 1].assume_init();
-                    if above >= t {
-                        break;
-                    }
-                    stack[k] = stack[k - 1];
-                    k -= 1;
+            let first = inner.trailing_zeros();
+            let rest = inner & (inner - 1);
+            // One child: it is next, with no trip through the stack.
+            if rest == 0 {
+                if entries[first as usize] <= reach(state) {
+                    index = child(first);
+                    continue;
                 }
-                stack[k] = MaybeUninit::new((child, t));
+            } else if rest & (rest - 1) == 0 {
+                // Two children: the farther is pushed, the nearer is next (of two at the same
+                // entry, the higher slot, as the insertion below orders them).
+                let second = rest.trailing_zeros();
+                let (t_first, t_second) = (entries[first as usize], entries[second as usize]);
+                let (near, t_near, far, t_far) = if t_first >= t_second {
+                    (second, t_second, first, t_first)
+                } else {
+                    (first, t_first, second, t_second)
+                };
+                let far = child(far);
+                prefetch(nodes, far);
+                // SAFETY: `len` stays below `STACK`.
+                *stack.get_unchecked_mut(len) = MaybeUninit::new((far, t_far));
                 len = (len + 1).min(STACK - 1);
+                if t_near <= reach(state) {
+                    index = child(near);
+                    continue;
+                }
+            } else {
+                // More: all are pushed, the nearest on top.
+                let bottom = len;
+                while inner != 0 {
+                    let slot = inner.trailing_zeros();
+                    inner &= inner - 1;
+                    let node = child(slot);
+                    let t = entries[slot as usize];
+                    prefetch(nodes, node);
+                    // Insertion by falling distance: the nearest ends on top.
+                    let mut k = len;
+                    // SAFETY: bottom ≤ k ≤ len < STACK.
+                    while k > bottom {
+                        let (_, above) = stack.get_unchecked(k - 1).assume_init();
+                        if above >= t {
+                            break;
+                        }
+                        *stack.get_unchecked_mut(k) = *stack.get_unchecked(k - 1);
+                        k -= 1;
+                    }
+                    *stack.get_unchecked_mut(k) = MaybeUninit::new((node, t));
+                    len = (len + 1).min(STACK - 1);
+                }
             }
         }
         loop {
@@ -103,11 +141,21 @@ pub(super) unsafe fn walk<S>(
                 return;
             }
             len -= 1;
-            let (child, t) = stack[len].assume_init();
+            // SAFETY: `len` < `STACK`, and every entry below the old `len` was written.
+            let (child, t) = stack.get_unchecked(len).assume_init();
             if t <= reach(state) {
                 index = child;
                 break;
             }
         }
     }
+}
+
+/// Starts loading the node at `index` (its 80 bytes span at most two cache lines).
+#[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,lzcnt")]
+#[inline]
+unsafe fn prefetch(nodes: &[CwBvhNode], index: u32) {
+    let ahead = nodes.as_ptr().wrapping_add(index as usize).cast::<i8>();
+    _mm_prefetch::<_MM_HINT_T0>(ahead);
+    _mm_prefetch::<_MM_HINT_T0>(ahead.wrapping_add(64));
 }
