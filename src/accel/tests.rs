@@ -229,6 +229,7 @@ fn one_lane(child: usize) -> std::arch::x86_64::__m256 {
 /// offset (p − o) / d per axis, its entry and exit distances (clamped as obvhs clamps them) lie
 /// within the rounding error either f32 evaluation of t = q·s + o' can make, 4 ulps of
 /// |q·s| + |o'|.
+#[cfg(target_arch = "x86_64")]
 fn grazes(node: &CwBvhNode, ray: &Ray, child: usize) -> bool {
     let scale = node.compute_extent() * ray.inv_direction;
     let shift = (Vec3A::from(node.p) - ray.origin) * ray.inv_direction;
