@@ -14,9 +14,9 @@
 //! or where R is small against a cell ([`SMALL`]); otherwise it is opened. R is over the light
 //! centres that the sums are over, while the sphere holds whole triangles: with the sphere alone,
 //! the table of 1M random triangles in a cube (sizes up to 0.3 of its half-side: a few large
-//! ones widen every sphere around them) took 4.5 s beside 0.8 s of tree; now 0.3 s. Receivers outside the grid keep the
-//! lane's own term. Any positive value keeps the choice unbiased: `sample` and `pmf` read the
-//! same table.
+//! ones widen every sphere around them) took 4.5 s beside 0.8 s of tree; now 0.3 s. Receivers
+//! outside the grid keep the lane's own term. Any positive value keeps the choice unbiased:
+//! `sample` and `pmf` read the same table.
 
 use glam::Vec3;
 use rayon::prelude::*;
