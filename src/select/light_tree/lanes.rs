@@ -92,6 +92,17 @@ fn minus(cos_a: f32, sin_a: f32, cos_b: f32, sin_b: f32) -> (f32, f32) {
     }
 }
 
+/// (cos, sin) of min(π, α + β) from those of α and β, α, β ∈ [0, π]: (−1, 0) once α + β ≥ π
+/// (cos α + cos β ≤ 0).
+#[inline(always)]
+fn plus(cos_a: f32, sin_a: f32, cos_b: f32, sin_b: f32) -> (f32, f32) {
+    if cos_a + cos_b <= 0.0 {
+        (-1.0, 0.0)
+    } else {
+        (cos_a * cos_b - sin_a * sin_b, sin_a * cos_b + cos_a * sin_b)
+    }
+}
+
 /// One weighted cosine (E or R in the module header): `cos_sharp` over the quarter sphere
 /// (1 inside it), at least β·`cos_whole` (pbrt's, over the whole sphere) outside the whole
 /// sphere and `INSIDE_FLOOR` inside it, and at least `COS_SLACK`.
@@ -209,29 +220,35 @@ fn lane(
     let radius = node.radius[k];
     let radius_sq = radius * radius;
     let inv_dist = 1.0 / dist_sq.sqrt();
-    let dir = to_p.map(|t| t * inv_dist);
     let sin_b = radius * inv_dist;
     let sin_b = if sin_b < 1.0 { sin_b } else { 1.0 };
     let cos_b = sin_of(sin_b);
-
-    let signed_phi = node.signed_phi[k];
-    let phi = signed_phi.abs();
-    let axis = [node.axis[0][k], node.axis[1][k], node.axis[2][k]];
-    let cos_w = axis[0] * dir[0] + axis[1] * dir[1] + axis[2] * dir[2];
-    let cos_w = if signed_phi < 0.0 { cos_w.abs() } else { cos_w };
-    let cos_o = node.cos_o[k];
-    let (cos_x, sin_x) = minus(cos_w, sin_of(cos_w), cos_o, sin_of(cos_o));
-    let (cos_p, _) = minus(cos_x, sin_x, cos_b, sin_b);
-    let emitter_rejects = cos_p <= node.cos_e[k] - COS_SLACK;
-    let outside = dist_sq > radius_sq;
-    let outside_sharp = dist_sq > SHARP_RADIUS * SHARP_RADIUS * radius_sq;
     let sin_s = SHARP_RADIUS * radius * inv_dist;
     let sin_s = if sin_s < 1.0 { sin_s } else { 1.0 };
     let cos_s = sin_of(sin_s);
-    let (cos_p_sharp, _) = minus(cos_x, sin_x, cos_s, sin_s);
+
+    // θw − θo − θ as θw − (θo + θ): the sums wait only for the distance, so the chain from
+    // the cone axis's cosine to the importance is one subtraction of angles long. Both dot
+    // products are taken with p − c and then scaled by 1/d, so they wait for the square root
+    // only at the end.
+    let signed_phi = node.signed_phi[k];
+    let phi = signed_phi.abs();
+    let axis = [node.axis[0][k], node.axis[1][k], node.axis[2][k]];
+    let cos_w = (axis[0] * to_p[0] + axis[1] * to_p[1] + axis[2] * to_p[2]) * inv_dist;
+    let cos_w = if signed_phi < 0.0 { cos_w.abs() } else { cos_w };
+    let sin_w = sin_of(cos_w);
+    let cos_o = node.cos_o[k];
+    let sin_o = sin_of(cos_o);
+    let (cos_ob, sin_ob) = plus(cos_o, sin_o, cos_b, sin_b);
+    let (cos_os, sin_os) = plus(cos_o, sin_o, cos_s, sin_s);
+    let (cos_p, _) = minus(cos_w, sin_w, cos_ob, sin_ob);
+    let emitter_rejects = cos_p <= node.cos_e[k] - COS_SLACK;
+    let outside = dist_sq > radius_sq;
+    let outside_sharp = dist_sq > SHARP_RADIUS * SHARP_RADIUS * radius_sq;
+    let (cos_p_sharp, _) = minus(cos_w, sin_w, cos_os, sin_os);
     let emitted = weighted(cos_p_sharp, cos_p, outside_sharp, outside);
 
-    let cos_i = -(dir[0] * n.x + dir[1] * n.y + dir[2] * n.z);
+    let cos_i = -(to_p[0] * n.x + to_p[1] * n.y + to_p[2] * n.z) * inv_dist;
     let sin_i = sin_of(cos_i);
     let (cos_r, _) = minus(cos_i, sin_i, cos_b, sin_b);
     let receiver_rejects = receiver & (cos_r <= -COS_SLACK);
