@@ -58,7 +58,9 @@ impl NearField {
         reach: &[Reach],
         points: &[PowerPoint],
     ) -> Option<NearField> {
-        nodes.first()?;
+        if nodes.is_empty() {
+            return None;
+        }
         let (lo, hi) = points.iter().fold(
             (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)),
             |(lo, hi), p| (lo.min(p.position), hi.max(p.position)),
