@@ -10,12 +10,12 @@
 //! child whose entry and exit lie within a few ulps of each other (a grazed box corner: the
 //! test in `tests.rs` checks every disagreement is one, and found none in 1,896 rays; the walk's
 //! triangle tests decide the hit itself) or a NaN distance, which needs coordinates beyond about
-//! 1e31. `cargo bench --bench rays`, six alternating rounds against the exact form: town camera /
-//! shadow / bounce 6.94 / 4.87 / 4.12 → 7.19 / 5.05 / 4.42 Mrays/s, 50k city 8.81 / 5.95 / 5.92
-//! → 9.09 / 6.13 / 6.32 (+3 to +7%). obvhs converts each
-//! child's bytes to floats one at a time, four children per pass; here one widening conversion
-//! per axis bound serves all eight (and all the rays of a packet), and the traversal mask is
-//! built in the vector too.
+//! 1e31. `cargo bench --bench rays` at dc1fd63, six alternating rounds against the exact form:
+//! town camera / shadow / bounce 6.94 / 4.87 / 4.12 → 7.19 / 5.05 / 4.42 Mrays/s, 50k city
+//! 8.81 / 5.95 / 5.92 → 9.09 / 6.13 / 6.32 (+3 to +7%). obvhs converts each child's bytes to
+//! floats one at a time, four children per pass; here one widening conversion per axis bound
+//! serves all eight (and all the rays of a packet), and the traversal mask is built in the
+//! vector too.
 
 #[cfg(target_arch = "x86_64")]
 use std::arch::x86_64::*;

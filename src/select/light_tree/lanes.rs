@@ -93,7 +93,8 @@ fn minus(cos_a: f32, sin_a: f32, cos_b: f32, sin_b: f32) -> (f32, f32) {
 }
 
 /// (cos, sin) of min(π, α + β) from those of α and β, α, β ∈ [0, π]: (−1, 0) once α + β ≥ π
-/// (cos α + cos β ≤ 0).
+/// (cos α + cos β ≤ 0). `bounds::cos_sum` in pair form, taking sin α as given (the lanes have
+/// it already) instead of computing it again.
 #[inline(always)]
 fn plus(cos_a: f32, sin_a: f32, cos_b: f32, sin_b: f32) -> (f32, f32) {
     if cos_a + cos_b <= 0.0 {
