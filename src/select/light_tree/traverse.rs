@@ -186,7 +186,7 @@ impl LightBvh {
             // Rescaled only where another choice follows.
             u = ((target - below) / importances[lane]).clamp(0.0, LARGEST_BELOW_ONE);
             index = child as usize;
-            (importances, total) = self.importances(index, p, n)?;
+            (importances, total) = self.below_root(index, p, n)?;
         }
     }
 
@@ -219,10 +219,11 @@ impl LightBvh {
         let light = light as u32;
         let mut index = 0;
         let mut pmf = 1.0;
+        let Some(mut lanes) = self.importances(0, p, n) else {
+            return 0.0;
+        };
         loop {
-            let Some((importances, total)) = self.importances(index, p, n) else {
-                return 0.0;
-            };
+            let (importances, total) = lanes;
             let node = &self.nodes[index];
             let Some(lane) = node.lane_of(light) else {
                 return 0.0;
@@ -240,6 +241,10 @@ impl LightBvh {
                 };
             }
             index = child as usize;
+            let Some(below) = self.below_root(index, p, n) else {
+                return 0.0;
+            };
+            lanes = below;
         }
     }
 
@@ -274,11 +279,30 @@ impl LightBvh {
         p: Vec3,
         n: Vec3,
     ) -> Option<([f64; LANES], f64)> {
-        let node = self.nodes.get(index)?;
         let near = match &self.near {
-            Some(field) if index == 0 => field.at(p),
+            Some(field) if index == 0 => field.at(p, n),
             _ => None,
         };
+        self.lane_importances(index, p, n, near)
+    }
+
+    /// [`importances`](Self::importances) at a node other than the root (which alone reads the
+    /// near-field table).
+    #[inline(always)]
+    fn below_root(&self, index: usize, p: Vec3, n: Vec3) -> Option<([f64; LANES], f64)> {
+        self.lane_importances(index, p, n, None)
+    }
+
+    /// The importances of node `index`'s lanes, with the root's table terms `near` if given.
+    #[inline(always)]
+    fn lane_importances(
+        &self,
+        index: usize,
+        p: Vec3,
+        n: Vec3,
+        near: Option<NearTerms>,
+    ) -> Option<([f64; LANES], f64)> {
+        let node = self.nodes.get(index)?;
         let importances = importances(node, p, n, near).map(f64::from);
         let total: f64 = importances.iter().sum();
         (total > 0.0).then_some((importances, total))

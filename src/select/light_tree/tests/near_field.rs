@@ -1,7 +1,8 @@
-//! The root's table: at its grid points each root lane's Σ Φ_i / max(d_i², ε), here summed over
-//! the lane's lights one by one, in f64, from their bounds as given to the build; read between
-//! them by trilinear interpolation; and each lane's bound R on its lights' distance from its
-//! power centre, against the lights one by one.
+//! The root's table: at its grid points each root lane's Σ Φ_i / max(d_i², ε) and its split by
+//! direction, here summed over the lane's lights one by one, in f64, from their bounds as given
+//! to the build; read between them (T by trilinear interpolation, the direction shares from the
+//! nearest point); and each lane's bound R on its
+//! lights' distance from its power centre, against the lights one by one.
 
 use super::*;
 use crate::select::light_tree::traverse::binary_tree;
@@ -22,65 +23,137 @@ fn the_root_table_holds_each_lanes_power_over_squared_distance() {
     });
     let floor = f64::from(near_field::floor(field.cell));
     let (mut sum_ratio, mut count, mut worst) = (0.0, 0, 1.0f64);
+    let (mut sum_share_error, mut shares, mut worst_share_error) = (0.0, 0, 0.0f64);
     let [nx, ny, nz] = field.dims;
     for point in (0..nx * ny * nz).step_by(37) {
         let at = [point % nx, (point / nx) % ny, point / (nx * ny)];
         let x = field.lo + field.cell * Vec3::from_array(at.map(|a| a as f32));
         for k in (0..LANES).filter(|&k| root.first[k] != EMPTY_LANE) {
-            let exact: f64 = (root.first[k] as usize..ends[k])
-                .map(|id| {
-                    let b = &scene.bounds[order[id] as usize];
-                    let centre = ((b.lo + b.hi) * 0.5).as_dvec3();
-                    f64::from(b.phi) / centre.distance_squared(x.as_dvec3()).max(floor)
-                })
-                .sum();
-            let ratio = f64::from(field.points[point][k]) / exact;
+            // T, and D for the six directions (+x, −x, +y, …), light by light.
+            let (mut exact, mut toward) = (0.0f64, [0.0f64; 6]);
+            for &light in &order[root.first[k] as usize..ends[k]] {
+                let b = &scene.bounds[light as usize];
+                let centre = ((b.lo + b.hi) * 0.5).as_dvec3();
+                let term = f64::from(b.phi) / centre.distance_squared(x.as_dvec3()).max(floor);
+                exact += term;
+                let omega = (centre - x.as_dvec3()).normalize_or_zero();
+                for a in 0..3 {
+                    toward[2 * a + usize::from(omega[a] < 0.0)] += term * omega[a].abs();
+                }
+            }
+            let ratio = f64::from(field.plain(point)[k]) / exact;
             sum_ratio += ratio;
             count += 1;
             worst = worst.max(ratio.max(1.0 / ratio));
+            for (d, &exact_d) in toward.iter().enumerate() {
+                let share = f64::from(field.share(point, d)[k]);
+                let error = (share - exact_d / exact).abs();
+                sum_share_error += error;
+                shares += 1;
+                worst_share_error = worst_share_error.max(error);
+            }
         }
     }
     let mean = sum_ratio / count as f64;
-    println!("{count} sums: mean ratio {mean:.4}, worst factor {worst:.3}");
+    let mean_share_error = sum_share_error / shares as f64;
+    println!(
+        "{count} sums: mean ratio {mean:.4}, worst factor {worst:.3}; direction shares D / T: \
+         mean error {mean_share_error:.4}, worst {worst_share_error:.3}"
+    );
     // Far clusters are counted at their power centre (beyond 4 R, each light's 1/d² within a
     // factor (4/3)² of the centre's; beyond 4 sphere radii within (5/3)²), small ones (R ≤ a
     // quarter cell) within 2.25 of it; the rest exactly up to Φ's bfloat16 coding.
     assert!(worst < (5.0f64 / 3.0).powi(2), "worst factor {worst}");
     assert!((mean - 1.0).abs() < 0.02, "mean ratio {mean}");
+    // Each share is coded to within 1/30, and a far cluster's lights lie within about asin(1/4)
+    // of its centre's direction, which can move a share by a few hundredths more. A table whose
+    // shares were another axis's or sign's would be off by ~0.3 on average.
+    assert!(
+        worst_share_error < 0.1,
+        "worst share error {worst_share_error}"
+    );
+    assert!(
+        mean_share_error < 0.02,
+        "mean share error {mean_share_error}"
+    );
 }
 
 #[test]
-fn the_table_is_read_between_grid_points_by_trilinear_interpolation() {
+fn the_table_is_read_between_grid_points_by_interpolation_and_the_nearest_points_shares() {
     let mut rng = Rand::new(19);
     let scene = random_scene(&mut rng, 500);
     let (bvh, _) = LightBvh::build(&scene.bounds);
     let field = bvh.near.as_ref().expect("a table");
     let [nx, ny, _] = field.dims;
-    let value = |i: usize, j: usize, k: usize| field.points[i + nx * (j + ny * k)];
+    let index = |i: usize, j: usize, k: usize| i + nx * (j + ny * k);
+    // T, and T times the share facing −y (what a receiver facing −y reads).
+    let value = |i: usize, j: usize, k: usize| field.plain(index(i, j, k));
+    let facing = |i: usize, j: usize, k: usize| -> [f32; LANES] {
+        let (t, share) = (value(i, j, k), field.share(index(i, j, k), 3));
+        std::array::from_fn(|l| t[l] * share[l])
+    };
     let position = |t: Vec3| field.lo + field.cell * t;
     let close = |a: f32, b: f32| (a - b).abs() <= 1e-5 * a.abs().max(b.abs());
     for (i, j, k) in [(0, 0, 0), (1, 2, 3), (3, 1, 2)] {
-        let corner = value(i, j, k);
-        let at = field.at(position(Vec3::new(i as f32, j as f32, k as f32)));
+        let (corner, corner_facing) = (value(i, j, k), facing(i, j, k));
+        let grid_point = position(Vec3::new(i as f32, j as f32, k as f32));
+        let at = field.at(grid_point, Vec3::NEG_Y);
         let at = at.expect("a grid point lies inside the grid");
         assert!(
-            (0..LANES).all(|l| close(at[l], corner[l])),
+            (0..LANES).all(|l| close(at.plain[l], corner[l])),
             "{at:?} {corner:?}"
         );
-        // A quarter of the way along x and halfway along y, z: the weights of the eight corners.
-        let t = Vec3::new(i as f32 + 0.25, j as f32 + 0.5, k as f32 + 0.5);
-        let at = field.at(position(t)).expect("inside");
-        for (l, &read) in at.iter().enumerate() {
+        // The directed sums to within rounding of T's size (a corner with no light on the −y
+        // side reads 0 there, up to its neighbours' rounding-sized weights).
+        let near_in_t = |l: usize, a: f32, b: f32| (a - b).abs() <= 1e-5 * corner[l];
+        assert!(
+            (0..LANES).all(|l| near_in_t(l, at.directed[l], corner_facing[l])),
+            "{at:?} {corner_facing:?}"
+        );
+        // Between grid points: T by trilinear interpolation, the shares of the nearest point.
+        let t = Vec3::new(i as f32 + 0.25, j as f32 + 0.7, k as f32 + 0.4);
+        let at = field.at(position(t), Vec3::NEG_Y).expect("inside");
+        let nearest_share = field.share(index(i, j + 1, k), 3);
+        for (l, share) in nearest_share.iter().enumerate() {
             let mut expected = 0.0;
             for (dx, wx) in [(0, 0.75), (1, 0.25)] {
-                for dy in 0..2 {
-                    for dz in 0..2 {
-                        expected += wx * 0.25 * value(i + dx, j + dy, k + dz)[l];
+                for (dy, wy) in [(0, 0.3), (1, 0.7)] {
+                    for (dz, wz) in [(0, 0.6), (1, 0.4)] {
+                        expected += wx * wy * wz * value(i + dx, j + dy, k + dz)[l];
                     }
                 }
             }
+            let expected_facing = expected * share;
+            let (read, read_facing) = (at.plain[l], at.directed[l]);
             assert!(close(read, expected), "lane {l}: {read} against {expected}");
+            assert!(
+                (read_facing - expected_facing).abs() <= 1e-5 * expected,
+                "lane {l}: {read_facing} against {expected_facing}"
+            );
         }
+    }
+}
+
+#[test]
+fn a_receiver_off_the_axes_weighs_the_direction_sums_by_its_normal_squared() {
+    let mut rng = Rand::new(29);
+    let scene = random_scene(&mut rng, 800);
+    let (bvh, _) = LightBvh::build(&scene.bounds);
+    let field = bvh.near.as_ref().expect("a table");
+    let p = field.lo + field.cell * Vec3::new(2.3, 1.6, 3.7);
+    let n = Vec3::new(0.6, -0.48, 0.64);
+    // The table read facing each axis alone (+x, −y, +z: n's signs).
+    let along = [Vec3::X, Vec3::NEG_Y, Vec3::Z].map(|a| field.at(p, a).expect("inside"));
+    let at = field.at(p, n).expect("inside");
+    for l in 0..LANES {
+        let expected: f32 = (0..3).map(|a| n[a] * n[a] * along[a].directed[l]).sum();
+        let read = at.directed[l];
+        assert!(
+            (read - expected).abs() <= 1e-5 * expected.max(read),
+            "lane {l}: {read} against {expected}"
+        );
+        // Each share is at most 1 and the weights n_a² sum to 1.
+        assert!(read <= at.plain[l] * (1.0 + 1e-5), "lane {l}: {read} > T");
     }
 }
 
@@ -98,8 +171,8 @@ fn lights_in_one_plane_get_a_table_around_it() {
     };
     let (bvh, _) = LightBvh::build(&[panel(0.0), panel(0.3)]);
     let field = bvh.near.as_ref().expect("a table");
-    assert!(field.at(Vec3::new(0.4, 1.0, 0.25)).is_some());
-    assert!(field.at(Vec3::new(0.4, 0.0, 0.25)).is_none());
+    assert!(field.at(Vec3::new(0.4, 1.0, 0.25), Vec3::NEG_Y).is_some());
+    assert!(field.at(Vec3::new(0.4, 0.0, 0.25), Vec3::NEG_Y).is_none());
 }
 
 #[test]
