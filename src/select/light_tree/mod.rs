@@ -39,7 +39,7 @@
 //! octahedral codes), `node` (the 32-byte build node), `split` (binned split
 //! choice), `build` (parallel subtree construction), `wide` (8-wide nodes and
 //! the collapse), `small_cut` (the collapse of small subtrees), `lanes` (the
-//! SIMD importance), `near_field` (the root's distance term from a table),
+//! SIMD importance), `near_field` (the root's distance and direction terms from a table),
 //! `traverse` (LightBvh: build entry, sample, pmf), `tests`.
 
 mod bounds;

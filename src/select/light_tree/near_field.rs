@@ -1,4 +1,4 @@
-//! The root's distance term from a table: for each root lane k, the sum
+//! The root's distance and direction terms from a table: for each root lane k, the sum
 //!     T_k(x) = Σ_{i in lane k} Φ_i / max(|x − x_i|², ε)
 //! over its lights (x_i a light's box centre, ε = ¼ of a grid cell's largest side squared), and
 //! the same sum split by direction, D_k,±a(x) = Σ_i Φ_i · max(0, ±ω_i,a) / max(|x − x_i|², ε)

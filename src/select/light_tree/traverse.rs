@@ -24,7 +24,7 @@ pub struct RootImportances(Importances);
 #[derive(Clone, Debug)]
 pub struct LightBvh {
     pub(super) nodes: Vec<WideNode>,
-    /// The root lanes' distance term near the lights ([`NearField`]).
+    /// The root lanes' distance and direction terms near the lights ([`NearField`]).
     pub(super) near: Option<NearField>,
     pub(super) lights: usize,
     /// Whether the CPU has AVX2 and FMA (`sample` and `pmf` then run a copy
