@@ -64,12 +64,7 @@ fn visible(accel: &Accel, ctx: &ShadingContext, light: &Light) -> bool {
         return true;
     };
     let centroid = t.p0 + (t.e1 + t.e2) / 3.0;
-    let facing = if t.normal.dot(ctx.p - centroid) >= 0.0 {
-        t.normal
-    } else {
-        -t.normal
-    };
-    !accel.segment_occluded(ctx.p, ctx.n, centroid, facing)
+    !accel.segment_occluded(ctx.p, ctx.n, centroid, t.side_toward(ctx.p - centroid))
 }
 
 /// Each selector of `kinds` at `points`, and the oracle's shadowed variance W·S − S² summed

@@ -7,11 +7,16 @@
 use super::*;
 use crate::select::light_tree::traverse::binary_tree;
 
+/// `count` random emitters (seeded by `seed`), their tree and its leaf order.
+fn random_tree(seed: u64, count: usize) -> (Scene, LightBvh, Vec<u32>) {
+    let scene = random_scene(&mut Rand::new(seed), count);
+    let (bvh, order) = LightBvh::build(&scene.bounds);
+    (scene, bvh, order)
+}
+
 #[test]
 fn the_root_table_holds_each_lanes_power_over_squared_distance() {
-    let mut rng = Rand::new(17);
-    let scene = random_scene(&mut rng, 3000);
-    let (bvh, order) = LightBvh::build(&scene.bounds);
+    let (scene, bvh, order) = random_tree(17, 3000);
     let field = bvh.near.as_ref().expect("a tree with extent has a table");
     let root = &bvh.nodes[0];
     // Lane k holds tree ids first[k] up to the next used lane's first.
@@ -80,9 +85,7 @@ fn the_root_table_holds_each_lanes_power_over_squared_distance() {
 
 #[test]
 fn the_table_is_read_between_grid_points_by_interpolation_and_the_nearest_points_shares() {
-    let mut rng = Rand::new(19);
-    let scene = random_scene(&mut rng, 500);
-    let (bvh, _) = LightBvh::build(&scene.bounds);
+    let (_, bvh, _) = random_tree(19, 500);
     let field = bvh.near.as_ref().expect("a table");
     let [nx, ny, _] = field.dims;
     let index = |i: usize, j: usize, k: usize| i + nx * (j + ny * k);
@@ -136,9 +139,7 @@ fn the_table_is_read_between_grid_points_by_interpolation_and_the_nearest_points
 
 #[test]
 fn a_receiver_off_the_axes_weighs_the_direction_sums_by_its_normal_squared() {
-    let mut rng = Rand::new(29);
-    let scene = random_scene(&mut rng, 800);
-    let (bvh, _) = LightBvh::build(&scene.bounds);
+    let (_, bvh, _) = random_tree(29, 800);
     let field = bvh.near.as_ref().expect("a table");
     let p = field.lo + field.cell * Vec3::new(2.3, 1.6, 3.7);
     let n = Vec3::new(0.6, -0.48, 0.64);
