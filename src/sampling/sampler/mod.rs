@@ -164,9 +164,18 @@ impl PixelSampler {
         }
     }
 
-    /// One coordinate as a fraction of 2^32.
-    #[inline]
+    /// One coordinate as a fraction of 2^32. The independent sampler's one hash is inlined
+    /// into every caller; the sequences stay out of line, so the hot path carries no call.
+    #[inline(always)]
     fn get_1d(&self, p: &Point) -> u32 {
+        if self.sampler.kind == SamplerKind::Independent {
+            return independent::sample_1d(p.absolute, p.seed);
+        }
+        self.get_1d_sequence(p)
+    }
+
+    #[inline(never)]
+    fn get_1d_sequence(&self, p: &Point) -> u32 {
         match self.sampler.kind {
             SamplerKind::Independent => independent::sample_1d(p.absolute, p.seed),
             SamplerKind::Stratified | SamplerKind::Lhs => {
@@ -179,9 +188,18 @@ impl PixelSampler {
         }
     }
 
-    /// Two coordinates (dims `p.dim`, `p.dim + 1`) as fractions of 2^32.
-    #[inline]
+    /// Two coordinates (dims `p.dim`, `p.dim + 1`) as fractions of 2^32 (inlined for the
+    /// independent sampler, as `get_1d`).
+    #[inline(always)]
     fn get_2d(&self, p: &Point) -> [u32; 2] {
+        if self.sampler.kind == SamplerKind::Independent {
+            return independent::sample_2d(p.absolute, p.seed);
+        }
+        self.get_2d_sequence(p)
+    }
+
+    #[inline(never)]
+    fn get_2d_sequence(&self, p: &Point) -> [u32; 2] {
         match self.sampler.kind {
             SamplerKind::Independent => independent::sample_2d(p.absolute, p.seed),
             SamplerKind::Stratified => stratified::sample_2d(p.local, p.count, p.seed),
@@ -206,6 +224,9 @@ pub struct CameraSample<'a> {
     /// `light_choice(0)`, when computed ahead by `with_first_light_choice`.
     first_light_choice: Option<f64>,
 }
+
+/// 2^-53: a 53-bit integer times this is a fraction in [0, 1).
+const TO_UNIT_53: f64 = 1.0 / 9_007_199_254_740_992.0;
 
 /// A fraction of 2^32 as an f32 in [0, 1) with 24 bits (never 1.0).
 #[inline]
@@ -240,15 +261,21 @@ impl CameraSample<'_> {
         }
     }
 
-    #[inline]
+    #[inline(always)]
     fn compute_light_choice(&self, k: u32) -> f64 {
-        const TO_UNIT: f64 = 1.0 / 9_007_199_254_740_992.0;
         let sm = &self.pixel.sampler;
         if sm.kind == SamplerKind::Independent {
             // All 53 bits from one hash.
             let p = self.pixel.point(LIGHT_CHOICE, sm.k, self.s, k as u64);
-            return (hash(p.seed, p.absolute) >> 11) as f64 * TO_UNIT;
+            return (hash(p.seed, p.absolute) >> 11) as f64 * TO_UNIT_53;
         }
+        self.sequence_light_choice(k)
+    }
+
+    /// `compute_light_choice` for the sequences: their 32 bits and 21 hashed ones.
+    #[inline(never)]
+    fn sequence_light_choice(&self, k: u32) -> f64 {
+        let sm = &self.pixel.sampler;
         let (p, high) = if sm.kind == SamplerKind::Sobol && sm.n == 1 {
             let p = self.pixel.point(LIGHT_POINT, sm.k, self.s, k as u64);
             let third = sobol::third(p.absolute, p.seed);
@@ -260,7 +287,7 @@ impl CameraSample<'_> {
         };
         let high = high as u64;
         let low = hash(p.seed ^ 0xa076_1d64_78bd_642f, p.absolute) >> 43;
-        ((high << 21) | low) as f64 * TO_UNIT
+        ((high << 21) | low) as f64 * TO_UNIT_53
     }
 
     /// The 2D number that places point n on light slot k's light.
