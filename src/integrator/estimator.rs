@@ -121,16 +121,19 @@ impl Estimator<'_> {
         counts: &mut SampleCounts,
     ) -> Vec3 {
         let hit = self.accel.closest_hit(origin, dir, f32::INFINITY);
-        self.radiance_from(hit, dir, cs, counts)
+        self.radiance_from(hit, dir, cs, None, counts)
     }
 
     /// Radiance arriving at the camera along the unit direction `dir` whose closest hit is
-    /// `hit` (traced by the caller, e.g. a pixel's samples in one packet).
+    /// `hit` (traced by the caller, e.g. a pixel's samples in one packet). `first_light` is
+    /// light slot 0's choice when the caller made it already from `cs.light_choice(0)`
+    /// (`prefetch_lights`), else None.
     pub fn radiance_from(
         &self,
         hit: Option<Hit>,
         dir: Vec3,
         cs: &CameraSample,
+        first_light: Option<usize>,
         counts: &mut SampleCounts,
     ) -> Vec3 {
         counts.camera_rays += 1;
@@ -143,9 +146,11 @@ impl Estimator<'_> {
         let emitted = self.emission_at(&hit, wo);
         let x = self.shading_point(&hit, wo);
         let reflected = match self.strategy {
-            Strategy::LightArea => self.light_samples(&x, Technique::Area, false, cs, counts),
+            Strategy::LightArea => {
+                self.light_samples(&x, Technique::Area, false, cs, first_light, counts)
+            }
             Strategy::LightSolidAngle => {
-                self.light_samples(&x, Technique::SolidAngle, false, cs, counts)
+                self.light_samples(&x, Technique::SolidAngle, false, cs, first_light, counts)
             }
             Strategy::Bsdf => {
                 let first = self.bsdf_ray(&x, 0, cs, counts);
@@ -159,7 +164,7 @@ impl Estimator<'_> {
                 if let Some((_, Some(hit))) = &first {
                     prefetch(&self.scene.triangles[hit.triangle as usize]);
                 }
-                self.light_samples(&x, Technique::SolidAngle, true, cs, counts)
+                self.light_samples(&x, Technique::SolidAngle, true, cs, first_light, counts)
                     + self.bsdf_samples_after(&x, true, first, cs, counts)
             }
             Strategy::HemisphereUniform | Strategy::HemisphereCosine => {
@@ -229,13 +234,16 @@ impl Estimator<'_> {
     }
 
     /// Σ over K lights and N samples of f · Le · V · G / (K · N · p_l · p(x')), each weighted by
-    /// the power heuristic against BSDF sampling when `mis`.
+    /// the power heuristic against BSDF sampling when `mis`. Slot 0 takes `first_light` when
+    /// given (the selector's choice from `cs.light_choice(0)`, made by the caller), with p_l
+    /// its `pmf`, which equals the p_l of that choice bit for bit.
     fn light_samples(
         &self,
         x: &ShadingPoint,
         technique: Technique,
         mis: bool,
         cs: &CameraSample,
+        first_light: Option<usize>,
         counts: &mut SampleCounts,
     ) -> Vec3 {
         let Some(selector) = self.selector else {
@@ -245,7 +253,11 @@ impl Estimator<'_> {
         let (k, n) = (self.k as f32, self.n as f32);
         let mut sum = Vec3::ZERO;
         for slot in 0..self.k {
-            let Some((l, p_l)) = selector.sample(self.lights, &ctx, cs.light_choice(slot)) else {
+            let choice = match first_light {
+                Some(l) if slot == 0 => Some((l, self.prefetched_pmf(selector, &ctx, l))),
+                _ => selector.sample(self.lights, &ctx, cs.light_choice(slot)),
+            };
+            let Some((l, p_l)) = choice else {
                 continue;
             };
             let p_l = p_l as f32;

@@ -3,25 +3,26 @@
 //! dependent cache misses per camera sample, taken one sample after another when each sample is
 //! shaded in turn. Making a packet's choices ahead of its camera rays' traversal, and asking
 //! only for those lines to be loaded, lets the misses of all its samples overlap with each
-//! other and with the traversal. The number that makes each slot-0 choice is kept in its sample
-//! for the shading, which makes the choice again, identically: this pass changes no result.
+//! other and with the traversal. Each sample's slot-0 choice is kept for its shading, which
+//! takes it instead of choosing again (the same light and p_l): this pass changes no result.
 //! The triangles a packet's camera rays hit are asked for the same way, between its traversal
 //! and its shading.
 
 use super::estimator::Estimator;
 use super::Strategy;
-use crate::accel::Hit;
+use crate::accel::{Hit, PACKET};
 use crate::sampling::prefetch::prefetch;
 use crate::sampling::sampler::CameraSample;
-use crate::select::LightSelector;
+use crate::select::{LightSelector, ShadingContext};
 
 impl Estimator<'_> {
     /// Starts loading the bins and lights that the K light choices of each of `samples` read,
     /// where the selector's choice does not depend on the shading point (the power selector's
     /// alias table) and the strategy draws one light per slot from `light_choice`. Each
-    /// sample's slot-0 choice is then kept in it (`with_first_light_choice`), so that this pass
-    /// and the shading compute it once.
-    pub fn prefetch_lights(&self, samples: &mut [CameraSample]) {
+    /// sample's slot-0 light is kept in `first_lights` (None where this pass chose nothing),
+    /// for `radiance_from` to take instead of choosing it again: the same light, whose p_l is
+    /// its `pmf` (bit for bit the p_l of the choice).
+    pub fn prefetch_lights(&self, samples: &[CameraSample], first_lights: &mut [Option<usize>]) {
         let Some(LightSelector::Power(table)) = self.selector else {
             return;
         };
@@ -33,18 +34,39 @@ impl Estimator<'_> {
         }
         // First every sample's first bin, so that the second pass's reads of them (each
         // followed by an unpredictable branch) find their lines on the way.
-        for cs in samples.iter_mut() {
-            *cs = cs.with_first_light_choice();
-            for slot in 0..self.k {
+        let mut first_choice = [0.0; PACKET];
+        for (cs, u) in samples.iter().zip(&mut first_choice) {
+            *u = cs.light_choice(0);
+            table.prefetch_sample(*u);
+            for slot in 1..self.k {
                 table.prefetch_sample(cs.light_choice(slot));
             }
         }
-        for cs in samples.iter() {
-            for slot in 0..self.k {
+        for ((cs, &u), first) in samples.iter().zip(&first_choice).zip(first_lights) {
+            let l = table.sample(u);
+            *first = Some(l);
+            table.prefetch(l);
+            prefetch(&self.lights.lights[l]);
+            for slot in 1..self.k {
                 let l = table.sample(cs.light_choice(slot));
                 table.prefetch(l);
                 prefetch(&self.lights.lights[l]);
             }
+        }
+    }
+
+    /// p_l of a light that `prefetch_lights` chose: the selector's `pmf`, read straight from
+    /// the alias table for the power selector (the only one it chooses for).
+    #[inline]
+    pub(super) fn prefetched_pmf(
+        &self,
+        selector: &LightSelector,
+        ctx: &ShadingContext,
+        l: usize,
+    ) -> f64 {
+        match selector {
+            LightSelector::Power(table) => table.pmf(l),
+            other => other.pmf(self.lights, ctx, l),
         }
     }
 

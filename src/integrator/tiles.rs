@@ -208,13 +208,14 @@ impl TileSums {
         &mut self,
         estimator: &Estimator,
         opts: &RenderOptions,
-        mut samples: [CameraSample; PACKET],
+        samples: [CameraSample; PACKET],
         rays: &[(Vec3, Vec3); PACKET],
         count: usize,
         last_of_pixel: u32,
     ) {
         // The light choices' cache misses overlap the camera rays' traversal.
-        estimator.prefetch_lights(&mut samples[..count]);
+        let mut first_lights = [None; PACKET];
+        estimator.prefetch_lights(&samples[..count], &mut first_lights[..count]);
         let mut hits = [None; PACKET];
         estimator
             .accel
@@ -223,7 +224,13 @@ impl TileSums {
         for i in 0..count {
             let stats = &mut self.stats;
             let surface_hits = stats.rays.surface_hits;
-            let l = estimator.radiance_from(hits[i], rays[i].1, &samples[i], &mut stats.rays);
+            let l = estimator.radiance_from(
+                hits[i],
+                rays[i].1,
+                &samples[i],
+                first_lights[i],
+                &mut stats.rays,
+            );
             stats.camera_samples += 1;
             match classify(l) {
                 SampleClass::Finite => {

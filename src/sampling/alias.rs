@@ -89,6 +89,7 @@ impl AliasTable {
     }
 
     /// Exact probability `w_i / W` of drawing index `i` (0 outside `0..n`).
+    #[inline]
     pub fn pmf(&self, i: usize) -> f64 {
         self.bins.get(i).map_or(0.0, |bin| bin.pmf)
     }

@@ -147,7 +147,6 @@ impl PixelSampler {
         CameraSample {
             pixel: self,
             s: s as u64,
-            first_light_choice: None,
         }
     }
 
@@ -221,8 +220,6 @@ impl PixelSampler {
 pub struct CameraSample<'a> {
     pixel: &'a PixelSampler,
     s: u64,
-    /// `light_choice(0)`, when computed ahead by `with_first_light_choice`.
-    first_light_choice: Option<f64>,
 }
 
 /// 2^-53: a 53-bit integer times this is a fraction in [0, 1).
@@ -242,27 +239,9 @@ impl CameraSample<'_> {
         self.pixel.get_2d(&p).map(to_f32)
     }
 
-    /// This sample with light slot 0's choice computed once, for a caller that reads it more
-    /// than once (a light prefetched before it is shaded): `light_choice(0)` then returns it.
-    #[inline]
-    pub fn with_first_light_choice(self) -> Self {
-        CameraSample {
-            first_light_choice: Some(self.compute_light_choice(0)),
-            ..self
-        }
-    }
-
     /// The number that chooses light slot k's light, in [0, 1) with 53 bits.
-    #[inline]
-    pub fn light_choice(&self, k: u32) -> f64 {
-        match self.first_light_choice {
-            Some(u) if k == 0 => u,
-            _ => self.compute_light_choice(k),
-        }
-    }
-
     #[inline(always)]
-    fn compute_light_choice(&self, k: u32) -> f64 {
+    pub fn light_choice(&self, k: u32) -> f64 {
         let sm = &self.pixel.sampler;
         if sm.kind == SamplerKind::Independent {
             // All 53 bits from one hash.
@@ -272,7 +251,7 @@ impl CameraSample<'_> {
         self.sequence_light_choice(k)
     }
 
-    /// `compute_light_choice` for the sequences: their 32 bits and 21 hashed ones.
+    /// `light_choice` for the sequences: their 32 bits and 21 hashed ones.
     #[inline(never)]
     fn sequence_light_choice(&self, k: u32) -> f64 {
         let sm = &self.pixel.sampler;
