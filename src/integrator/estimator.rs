@@ -178,6 +178,7 @@ impl Estimator<'_> {
 
     /// Le at a hit point toward unit direction `w` (zero on a one-sided emitter's back), its
     /// emissive texture read at the hit's uv.
+    #[inline(always)]
     fn emission_at(&self, hit: &Hit, w: Vec3) -> Vec3 {
         let tri = &self.scene.triangles[hit.triangle as usize];
         let m = &self.scene.materials[tri.material as usize];
@@ -462,7 +463,7 @@ impl Estimator<'_> {
 
     /// f · Le · cosθ · w / (K · N · p(ω)) of one traced BSDF direction; None when it found no
     /// emission or its density is 0.
-    #[inline]
+    #[inline(always)]
     fn bsdf_term(
         &self,
         x: &ShadingPoint,
@@ -486,7 +487,7 @@ impl Estimator<'_> {
     /// The emission a traced BSDF direction found (at the emitter it hit, else the environment's)
     /// with f and the BRDF's solid-angle density for that direction; None when it found none
     /// (only a direction that found emission needs f and its density).
-    #[inline]
+    #[inline(always)]
     fn emission_with_brdf(
         &self,
         x: &ShadingPoint,
