@@ -131,10 +131,19 @@ impl TriangleLight {
 
     /// The solid-angle view of this triangle from p, when that technique applies there
     /// (Ω above MIN_SPHERICAL_SOLID_ANGLE; split at the foot from MAX_SPHERICAL_SOLID_ANGLE on).
+    /// The cheap test that rules most distant triangles out is inlined into the caller; the
+    /// set-up is not.
+    #[inline(always)]
     fn spherical_at(&self, p: Vec3, technique: Technique) -> Option<SolidAngleView> {
         if technique != Technique::SolidAngle || self.solid_angle_surely_small(p) {
             return None;
         }
+        self.spherical_view(p)
+    }
+
+    /// `spherical_at` past its cheap test: Arvo's set-up, whole or split.
+    #[inline(never)]
+    fn spherical_view(&self, p: Vec3) -> Option<SolidAngleView> {
         let view = SphericalTriangle::new(p, self.vertices())?;
         let omega = view.solid_angle();
         if omega <= MIN_SPHERICAL_SOLID_ANGLE {
