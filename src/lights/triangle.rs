@@ -210,7 +210,7 @@ impl TriangleLight {
     }
 
     /// Draws a point for receiver p; None when the sample carries no light (edge-on).
-    #[inline]
+    #[inline(always)]
     pub fn sample(&self, p: Vec3, technique: Technique, u: [f32; 2]) -> Option<TriangleSample> {
         if let Some(view) = self.spherical_at(p, technique) {
             // A degenerate spherical sample is dropped rather than redrawn by area, so that
