@@ -87,6 +87,8 @@ struct ShadingPoint {
     ns: Vec3,
     wo: Vec3,
     brdf: Brdf,
+    /// x moved off its surface along `ng` (`offset_ray_origin`): where every ray from x starts.
+    origin: Vec3,
 }
 
 impl ShadingPoint {
@@ -231,6 +233,7 @@ impl Estimator<'_> {
             ns,
             wo,
             brdf,
+            origin: offset_ray_origin(p, ng),
         }
     }
 
@@ -321,10 +324,7 @@ impl Estimator<'_> {
             return NOTHING;
         }
         counts.shadow_rays += 1;
-        if self
-            .accel
-            .segment_occluded(x.p, x.ng, s.point, light.side_toward(-wi))
-        {
+        if self.segment_occluded(x, s.point, light.side_toward(-wi)) {
             return NOTHING;
         }
         let g = x.ns.dot(wi) * s.jacobian;
@@ -372,6 +372,17 @@ impl Estimator<'_> {
         (f * s.radiance * x.ns.dot(s.wi), s.pdf, weight)
     }
 
+    /// `Accel::segment_occluded` from x to point `b` on a light (unit normal `nb` on the
+    /// segment's side), with x's end already moved off its surface once (`x.origin`): the same
+    /// segment, hence the same answer, as `segment_occluded(x.p, x.ng, b, nb)`.
+    #[inline]
+    fn segment_occluded(&self, x: &ShadingPoint, b: Vec3, nb: Vec3) -> bool {
+        let to = offset_ray_origin(b, nb);
+        let d = to - x.origin;
+        let len = d.length();
+        len > 0.0 && self.accel.occluded(x.origin, d / len, len)
+    }
+
     /// Radiance of the environment along a ray that leaves the scene (zero without one).
     #[inline]
     fn environment_radiance(&self, dir: Vec3) -> Vec3 {
@@ -403,7 +414,7 @@ impl Estimator<'_> {
     /// infinity when `dist` is infinite): the shadow ray of a point light, a directional light or
     /// the environment, started off the surface.
     fn direction_occluded(&self, x: &ShadingPoint, wi: Vec3, dist: f32) -> bool {
-        let origin = offset_ray_origin(x.p, x.ng);
+        let origin = x.origin;
         if dist.is_finite() {
             let to_light = x.p + wi * dist - origin;
             let length = to_light.length();
@@ -430,8 +441,7 @@ impl Estimator<'_> {
             return None;
         }
         counts.bounce_rays += 1;
-        let origin = offset_ray_origin(x.p, x.ng);
-        Some((wi, self.accel.closest_hit(origin, wi, f32::INFINITY)))
+        Some((wi, self.accel.closest_hit(x.origin, wi, f32::INFINITY)))
     }
 
     /// Σ over K·N BRDF-sampled directions of f · Le · cosθ / (K · N · p(ω)), each weighted by
@@ -552,7 +562,7 @@ impl Estimator<'_> {
     /// Σ over K·N directions of f · Le · cosθ / (K · N · p(ω)), uniform or cosine p(ω).
     fn hemisphere(&self, x: &ShadingPoint, cs: &CameraSample, counts: &mut SampleCounts) -> Vec3 {
         let frame = Frame::new(x.ns);
-        let origin = offset_ray_origin(x.p, x.ng);
+        let origin = x.origin;
         let samples = self.k * self.n;
         let mut sum = Vec3::ZERO;
         for j in 0..samples {

@@ -309,7 +309,7 @@ impl Estimator<'_> {
             Visibility::Visible => false,
             Visibility::Segment { point, light_side } => {
                 counts.shadow_rays += 1;
-                self.accel.segment_occluded(x.p, x.ng, point, light_side)
+                self.segment_occluded(x, point, light_side)
             }
             Visibility::Distance(dist) => {
                 counts.shadow_rays += 1;
