@@ -158,14 +158,14 @@ fn render_tile(
     } else if let Some(group) = PACKET.checked_div(spp) {
         // Fewer samples than a packet holds: the samples of PACKET / spp neighbouring pixels,
         // pixel after pixel, share one walk.
+        // The run's pixels' sequences, written over the previous run's in place (entries past
+        // the run's last pixel are never read).
+        let mut samplers: [PixelSampler; PACKET] = [sampler.pixel(0); PACKET];
         for run in pixels.chunks(group) {
             let count = run.len() * spp;
-            // The run's pixels' sequences (spare entries repeat the first, never read).
-            let first = pixel_sampler(run[0]);
-            let samplers: [PixelSampler; PACKET] = std::array::from_fn(|p| match run.get(p) {
-                Some(&pixel) if p > 0 => pixel_sampler(pixel),
-                _ => first,
-            });
+            for (slot, &pixel) in samplers.iter_mut().zip(run) {
+                *slot = pixel_sampler(pixel);
+            }
             // Slot i is sample i % spp of the run's pixel i / spp; slots past the run's last
             // sample repeat it and are never traced.
             let slot = |i: usize| {
