@@ -143,14 +143,14 @@ fn render_tile(
             let pixel_sampler = pixel_sampler((x, y));
             for first in (0..opts.spp).step_by(PACKET) {
                 let count = (opts.spp - first).min(PACKET as u32) as usize;
-                // Slots past the pixel's last sample repeat it and are never traced.
-                let samples: [CameraSample; PACKET] = std::array::from_fn(|i| {
-                    pixel_sampler.camera_sample(first + i.min(count - 1) as u32)
-                });
-                let rays: [(Vec3, Vec3); PACKET] = std::array::from_fn(|i| {
-                    let [jx, jy] = samples[i].pixel_jitter();
-                    camera.ray(x as f32 + jx, y as f32 + jy)
-                });
+                // Slots past the pixel's last sample are never traced nor read.
+                let mut samples = [pixel_sampler.camera_sample(first); PACKET];
+                let mut rays = [(Vec3::ZERO, Vec3::ZERO); PACKET];
+                for (i, (cs, ray)) in samples.iter_mut().zip(&mut rays).enumerate().take(count) {
+                    *cs = pixel_sampler.camera_sample(first + i as u32);
+                    let [jx, jy] = cs.pixel_jitter();
+                    *ray = camera.ray(x as f32 + jx, y as f32 + jy);
+                }
                 tile.shade(estimator, opts, samples, &rays, count, 0);
             }
             tile.end_pixel();
@@ -167,20 +167,17 @@ fn render_tile(
                 *slot = pixel_sampler(pixel);
             }
             // Slot i is sample i % spp of the run's pixel i / spp; slots past the run's last
-            // sample repeat it and are never traced.
-            let slot = |i: usize| {
-                let i = i.min(count - 1);
-                (i / spp, (i % spp) as u32)
-            };
-            let samples: [CameraSample; PACKET] = std::array::from_fn(|i| {
-                let (p, s) = slot(i);
-                samplers[p].camera_sample(s)
-            });
-            let rays: [(Vec3, Vec3); PACKET] = std::array::from_fn(|i| {
-                let (x, y) = run[slot(i).0];
-                let [jx, jy] = samples[i].pixel_jitter();
-                camera.ray(x as f32 + jx, y as f32 + jy)
-            });
+            // sample are never traced nor read.
+            let mut samples = [samplers[0].camera_sample(0); PACKET];
+            let mut rays = [(Vec3::ZERO, Vec3::ZERO); PACKET];
+            let slots = samples.iter_mut().zip(&mut rays).take(count);
+            for (i, (cs, ray)) in slots.enumerate() {
+                let (p, s) = (i / spp, (i % spp) as u32);
+                *cs = samplers[p].camera_sample(s);
+                let (x, y) = run[p];
+                let [jx, jy] = cs.pixel_jitter();
+                *ray = camera.ray(x as f32 + jx, y as f32 + jy);
+            }
             let last_of_pixel = (1..=run.len()).fold(0, |mask, p| mask | 1 << (p * spp - 1));
             tile.shade(estimator, opts, samples, &rays, count, last_of_pixel);
         }
