@@ -34,16 +34,17 @@ impl Estimator<'_> {
         }
         // First every sample's first bin, so that the second pass's reads of them (each
         // followed by an unpredictable branch) find their lines on the way.
-        let mut first_choice = [0.0; PACKET];
-        for (cs, u) in samples.iter().zip(&mut first_choice) {
-            *u = cs.light_choice(0);
-            table.prefetch_sample(*u);
+        // Slot 0's start is kept for the second pass.
+        let mut starts = [table.start(0.0); PACKET];
+        for (cs, start) in samples.iter().zip(&mut starts) {
+            *start = table.start(cs.light_choice(0));
+            table.prefetch_start(*start);
             for slot in 1..self.k {
                 table.prefetch_sample(cs.light_choice(slot));
             }
         }
-        for ((cs, &u), first) in samples.iter().zip(&first_choice).zip(first_lights) {
-            let l = table.sample(u);
+        for ((cs, &start), first) in samples.iter().zip(&starts).zip(first_lights) {
+            let l = table.sample_from(start);
             *first = Some(l);
             table.prefetch(l);
             prefetch(&self.lights.lights[l]);

@@ -29,6 +29,15 @@ struct Bin {
     alias: u32,
 }
 
+/// Where a draw from an [`AliasTable`] starts (see [`AliasTable::start`]).
+#[derive(Debug, Clone, Copy)]
+pub struct Start {
+    /// `min(⌊u·n⌋, n − 1)`, a valid bin.
+    bin: usize,
+    /// `u·n`.
+    scaled: f64,
+}
+
 /// Alias table over indices `0..n` with probabilities proportional to given
 /// weights `w_i`.
 ///
@@ -102,11 +111,30 @@ impl AliasTable {
     /// `53 − log₂ n` bits of `u`. A `u` outside `[0, 1)` is clamped, and never
     /// yields a zero-weight index.
     pub fn sample(&self, u: f64) -> usize {
-        let (bin_index, scaled) = self.first_bin(u);
-        let frac = scaled - bin_index as f64;
-        let bin = &self.bins[bin_index];
+        self.sample_from(self.start(u))
+    }
+
+    /// Where `sample(u)` starts: the bin it reads first and u·n, kept by a
+    /// caller that prefetches that bin (`prefetch_start`) and samples later
+    /// (`sample_from`) without finding it again.
+    #[inline(always)]
+    pub fn start(&self, u: f64) -> Start {
+        let n = self.bins.len();
+        let scaled = u.clamp(0.0, 1.0) * n as f64;
+        // `as` saturates (NaN → 0); the min handles u·n rounding up to n.
+        Start {
+            bin: (scaled as usize).min(n - 1),
+            scaled,
+        }
+    }
+
+    /// `sample(u)` from its `start(u)`.
+    #[inline]
+    pub fn sample_from(&self, start: Start) -> usize {
+        let frac = start.scaled - start.bin as f64;
+        let bin = &self.bins[start.bin];
         if frac < bin.threshold {
-            bin_index
+            start.bin
         } else {
             bin.alias as usize
         }
@@ -116,16 +144,14 @@ impl AliasTable {
     /// changes no result.
     #[inline]
     pub fn prefetch_sample(&self, u: f64) {
-        prefetch(&self.bins[self.first_bin(u).0]);
+        self.prefetch_start(self.start(u));
     }
 
-    /// The bin `sample(u)` reads first, and u·n it was found from.
-    #[inline(always)]
-    fn first_bin(&self, u: f64) -> (usize, f64) {
-        let n = self.bins.len();
-        let scaled = u.clamp(0.0, 1.0) * n as f64;
-        // `as` saturates (NaN → 0); the min handles u·n rounding up to n.
-        ((scaled as usize).min(n - 1), scaled)
+    /// Starts loading the bin that `sample_from(start)` reads: a hint that
+    /// changes no result.
+    #[inline]
+    pub fn prefetch_start(&self, start: Start) {
+        prefetch(&self.bins[start.bin]);
     }
 
     /// Starts loading index `i`'s bin (its pmf, which `sample_with_pmf` and
