@@ -407,27 +407,35 @@ impl Binner {
         x < cut as f32 || x.is_nan()
     }
 
-    /// Bins the lights along every active axis, in one pass (halves of
-    /// large sets binned in parallel).
+    /// Bins the lights along every active axis, in one pass. Alternate lights go to two sets
+    /// of bins, merged at the end, so that a run of lights in one bucket is not a chain of
+    /// updates each waiting for the one before.
     pub(super) fn bin(&self, prims: &[Prim]) -> [[Side; BUCKETS]; 3] {
-        if prims.len() >= PARALLEL_BINNING_MIN {
-            let (a, b) = prims.split_at(prims.len() / 2);
-            let (mut bins, other) = rayon::join(|| self.bin(a), || self.bin(b));
-            for (bin, more) in bins.iter_mut().flatten().zip(other.iter().flatten()) {
-                bin.add(more);
-            }
-            return bins;
+        let mut even = [[Side::EMPTY; BUCKETS]; 3];
+        let mut odd = [[Side::EMPTY; BUCKETS]; 3];
+        let mut pairs = prims.chunks_exact(2);
+        for pair in &mut pairs {
+            self.add(&mut even, &pair[0]);
+            self.add(&mut odd, &pair[1]);
         }
-        let mut bins = [[Side::EMPTY; BUCKETS]; 3];
-        for p in prims {
-            let buckets = self.buckets(p.centroid());
-            for (axis, row) in bins.iter_mut().enumerate() {
-                if self.active[axis] {
-                    row[buckets[axis]].push(p);
-                }
+        for p in pairs.remainder() {
+            self.add(&mut even, p);
+        }
+        for (bin, more) in even.iter_mut().flatten().zip(odd.iter().flatten()) {
+            bin.add(more);
+        }
+        even
+    }
+
+    /// Adds one light to its bucket along every active axis.
+    #[inline(always)]
+    fn add(&self, bins: &mut [[Side; BUCKETS]; 3], p: &Prim) {
+        let buckets = self.buckets(p.centroid());
+        for (axis, row) in bins.iter_mut().enumerate() {
+            if self.active[axis] {
+                row[buckets[axis]].push(p);
             }
         }
-        bins
     }
 }
 
@@ -472,10 +480,18 @@ pub(super) fn axis_weights(node: &Side) -> ([f64; 3], f32, f64) {
     )
 }
 
-/// Binned split: 12 buckets along each axis, every boundary tried.
+/// Binned split: 12 buckets along each axis, every boundary tried. A node of n ≥ 2·
+/// [`BINNED_SAMPLE`] lights is binned from every ⌊n / `BINNED_SAMPLE`⌋-th light only (all
+/// are partitioned).
 pub(super) fn binned_split(prims: &mut [Prim], centroids: Aabb) -> Option<Split> {
     let binner = Binner::new(&centroids);
-    let bins = binner.bin(prims);
+    let step = prims.len() / BINNED_SAMPLE;
+    let bins = if step > 1 {
+        let sample: Vec<Prim> = prims.iter().step_by(step).copied().collect();
+        binner.bin(&sample)
+    } else {
+        binner.bin(prims)
+    };
     let row = bins.iter().zip(binner.active).find(|(_, a)| *a)?.0;
     let mut node = Side::EMPTY;
     row.iter().for_each(|bin| node.add(bin));
