@@ -132,7 +132,14 @@ impl Accel {
     /// off their surfaces, so neither the receiver nor the emitter occludes itself.
     #[inline]
     pub fn segment_occluded(&self, a: Vec3, na: Vec3, b: Vec3, nb: Vec3) -> bool {
-        let from = offset_ray_origin(a, na);
+        self.segment_occluded_from(offset_ray_origin(a, na), b, nb)
+    }
+
+    /// [`segment_occluded`](Self::segment_occluded) with the first end already moved off its
+    /// surface (`from` = `offset_ray_origin(a, na)`), for a caller that traces several rays
+    /// from one point.
+    #[inline]
+    pub fn segment_occluded_from(&self, from: Vec3, b: Vec3, nb: Vec3) -> bool {
         let to = offset_ray_origin(b, nb);
         let d = to - from;
         let len = d.length();

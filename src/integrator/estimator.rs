@@ -324,7 +324,10 @@ impl Estimator<'_> {
             return NOTHING;
         }
         counts.shadow_rays += 1;
-        if self.segment_occluded(x, s.point, light.side_toward(-wi)) {
+        if self
+            .accel
+            .segment_occluded_from(x.origin, s.point, light.side_toward(-wi))
+        {
             return NOTHING;
         }
         let g = x.ns.dot(wi) * s.jacobian;
@@ -370,17 +373,6 @@ impl Estimator<'_> {
             1.0
         };
         (f * s.radiance * x.ns.dot(s.wi), s.pdf, weight)
-    }
-
-    /// `Accel::segment_occluded` from x to point `b` on a light (unit normal `nb` on the
-    /// segment's side), with x's end already moved off its surface once (`x.origin`): the same
-    /// segment, hence the same answer, as `segment_occluded(x.p, x.ng, b, nb)`.
-    #[inline]
-    fn segment_occluded(&self, x: &ShadingPoint, b: Vec3, nb: Vec3) -> bool {
-        let to = offset_ray_origin(b, nb);
-        let d = to - x.origin;
-        let len = d.length();
-        len > 0.0 && self.accel.occluded(x.origin, d / len, len)
     }
 
     /// Radiance of the environment along a ray that leaves the scene (zero without one).

@@ -309,7 +309,8 @@ impl Estimator<'_> {
             Visibility::Visible => false,
             Visibility::Segment { point, light_side } => {
                 counts.shadow_rays += 1;
-                self.segment_occluded(x, point, light_side)
+                self.accel
+                    .segment_occluded_from(x.origin, point, light_side)
             }
             Visibility::Distance(dist) => {
                 counts.shadow_rays += 1;
