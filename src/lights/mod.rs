@@ -19,6 +19,7 @@ pub use environment::{EnvironmentLight, EnvironmentMap, EnvironmentSample};
 pub use punctual::{DeltaSample, DirectionalLight, PointLight};
 pub use triangle::{Technique, TriangleLight, TriangleSample};
 
+use crate::sampling::prefetch::prefetch;
 use crate::scene::Scene;
 
 /// Whether a surface with unit front normal `n` emits toward direction `w` (pointing away from
@@ -164,6 +165,8 @@ impl Lights {
                 if from == start {
                     break;
                 }
+                // The next swap reads light source[from], a miss far from here: start it now.
+                prefetch(&self.lights[source[from] as usize]);
                 self.lights.swap(k, from);
                 k = from;
             }
