@@ -185,9 +185,17 @@ pub(super) fn importances(
         directed: [0.0; LANES],
     });
     let mut out = [0.0; LANES];
-    for (k, out) in out.iter_mut().enumerate() {
-        let near = (plain[k], directed[k]);
-        *out = lane(&lanes, k, p, n, lobe, receiver, use_near, near);
+    // The lobe factor is 1 exactly without a gain: a receiver without a lobe skips it.
+    if lobe.gain > 0.0 {
+        for (k, out) in out.iter_mut().enumerate() {
+            let near = (plain[k], directed[k]);
+            *out = lane::<true>(&lanes, k, p, n, lobe, receiver, use_near, near);
+        }
+    } else {
+        for (k, out) in out.iter_mut().enumerate() {
+            let near = (plain[k], directed[k]);
+            *out = lane::<false>(&lanes, k, p, n, lobe, receiver, use_near, near);
+        }
     }
     out
 }
@@ -252,7 +260,7 @@ impl Decoded {
 
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn lane(
+fn lane<const GLOSSY: bool>(
     node: &Decoded,
     k: usize,
     p: Vec3,
@@ -333,12 +341,16 @@ fn lane(
         (false, _) => phi / d_sq * factor,
     };
     // The lobe factor (`Lobe`); a NaN cosine (p at the centre) gives t = 1.
-    let r = lobe.r;
-    let cos_m = -(to_p[0] * r.x + to_p[1] * r.y + to_p[2] * r.z) * inv_dist;
-    let sin_m = sin_of(cos_m);
-    let (cos_g, _) = minus(cos_m, sin_m, cos_b, sin_b);
-    let t = max(1.0 + lobe.sharpness * (1.0 - cos_g), 1.0);
-    let value = value * (1.0 + lobe.gain / (t * t));
+    let value = if GLOSSY {
+        let r = lobe.r;
+        let cos_m = -(to_p[0] * r.x + to_p[1] * r.y + to_p[2] * r.z) * inv_dist;
+        let sin_m = sin_of(cos_m);
+        let (cos_g, _) = minus(cos_m, sin_m, cos_b, sin_b);
+        let t = max(1.0 + lobe.sharpness * (1.0 - cos_g), 1.0);
+        value * (1.0 + lobe.gain / (t * t))
+    } else {
+        value
+    };
     let value = if value < f32::MAX { value } else { f32::MAX };
     let value = max(value, f32::MIN_POSITIVE);
     if reject {
