@@ -148,6 +148,15 @@ impl Brdf {
         }
     }
 
+    /// (α, w_s, w_d): GGX's α and the specular and diffuse albedo estimates of
+    /// `specular_probability` (F at normal incidence, and the diffuse luminance).
+    pub fn lobe_weights(&self) -> (f32, f32, f32) {
+        let m = self.metallic;
+        let w_s = (1.0 - m) * self.specular * 0.04 + m * luminance(self.base_color);
+        let w_d = (1.0 - m) * (1.0 - 0.04 * self.specular) * luminance(self.base_color);
+        (self.alpha, w_s, w_d)
+    }
+
     /// Samples wi: the specular lobe with probability p_s (GGX visible normals, Heitz 2018,
     /// reflected about the sampled half vector), else the cosine-weighted diffuse lobe.
     /// None when the sample falls below the surface or the material reflects nothing.

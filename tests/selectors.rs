@@ -11,7 +11,7 @@ use manylights::sampling::rng::PixelRng;
 use manylights::scene::{
     load_gltf, CameraChoice, EnvironmentImage, PunctualKind, PunctualLight, Scene,
 };
-use manylights::select::{oracle, LightSelector, SelectorKind, ShadingContext};
+use manylights::select::{oracle, LightSelector, Lobe, SelectorKind, ShadingContext};
 
 fn town_with_punctual_lights() -> Scene {
     let dir = tempfile::tempdir().unwrap();
@@ -62,7 +62,11 @@ fn random_contexts(scene: &Scene, count: usize, seed: u64) -> Vec<ShadingContext
                 let v = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 2.0 - 1.0;
                 v.normalize_or(Vec3::Y)
             };
-            ShadingContext { p, n }
+            ShadingContext {
+                p,
+                n,
+                lobe: Lobe::NONE,
+            }
         })
         .collect()
 }

@@ -9,7 +9,7 @@ use std::path::Path;
 use manylights::accel::Accel;
 use manylights::gen::generate::city;
 use manylights::scene::{load_gltf, load_gltf_bytes, Scene};
-use manylights::select::ShadingContext;
+use manylights::select::{Lobe, ShadingContext};
 
 /// `scenes/NAME.glb` of this repository.
 pub fn shipped(name: &str) -> Scene {
@@ -50,6 +50,7 @@ pub fn shading_points(
                 points.push(ShadingContext {
                     p: origin + dir * hit.t,
                     n,
+                    lobe: Lobe::NONE,
                 });
             }
         }

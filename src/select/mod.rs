@@ -15,6 +15,7 @@ use glam::Vec3;
 use crate::lights::Lights;
 use crate::sampling::alias::AliasTable;
 
+pub use light_tree::Lobe;
 pub use tree_selector::BvhSelector;
 
 /// Which selector to build.
@@ -29,11 +30,13 @@ pub enum SelectorKind {
     Oracle,
 }
 
-/// The receiver a light is chosen for: position and unit (shading) normal.
+/// The receiver a light is chosen for: position, unit (shading) normal and its specular lobe
+/// (`Lobe::NONE` for a diffuse receiver; only `bvh` reads it).
 #[derive(Clone, Copy, Debug)]
 pub struct ShadingContext {
     pub p: Vec3,
     pub n: Vec3,
+    pub lobe: Lobe,
 }
 
 /// A built selector over a fixed set of lights.

@@ -113,12 +113,12 @@ impl BvhSelector {
             // p_tree is 1 (or 0 for an empty tree, which samples nothing).
             return self
                 .tree
-                .sample(ctx.p, ctx.n, u.min(1.0 - f64::EPSILON))
+                .sample_with(ctx.p, ctx.n, ctx.lobe, u.min(1.0 - f64::EPSILON))
                 .map(|(l, p)| (l, p * self.p_tree));
         }
         // With infinite lights the tree is chosen only where it can reach the receiver: its
         // root, evaluated once here, answers that and starts the walk.
-        let root = self.tree.root(ctx.p, ctx.n);
+        let root = self.tree.root_with(ctx.p, ctx.n, ctx.lobe);
         let p_tree = if root.is_some() { self.p_tree } else { 0.0 };
         let p_infinite = 1.0 - p_tree;
         if u < p_infinite {
@@ -136,7 +136,7 @@ impl BvhSelector {
         }
         let u_tree = ((u - p_infinite) / p_tree).min(1.0 - f64::EPSILON);
         self.tree
-            .sample_below(&root?, ctx.p, ctx.n, u_tree)
+            .sample_below_with(&root?, ctx.p, ctx.n, ctx.lobe, u_tree)
             .map(|(l, p)| (l, p * p_tree))
     }
 
@@ -144,7 +144,7 @@ impl BvhSelector {
         // A light in the tree: where the tree cannot reach the receiver its pmf is 0 already,
         // so the root is not evaluated a second time to ask.
         if self.infinite.is_empty() || light < self.tree.len() {
-            return self.tree.pmf(ctx.p, ctx.n, light) * self.p_tree;
+            return self.tree.pmf_with(ctx.p, ctx.n, ctx.lobe, light) * self.p_tree;
         }
         let p_tree = if self.tree.can_reach(ctx.p, ctx.n) {
             self.p_tree

@@ -21,7 +21,7 @@ use manylights::integrator::{render, PreparedScene, RenderOptions, RenderStats, 
 use manylights::lights::Lights;
 use manylights::sampling::rng::PixelRng;
 use manylights::scene::{load_gltf, Camera, CameraChoice, Material, Scene, Triangle};
-use manylights::select::{oracle, LightSelector, SelectorKind, ShadingContext};
+use manylights::select::{oracle, LightSelector, Lobe, SelectorKind, ShadingContext};
 
 pub(crate) const RHO: f32 = 0.5;
 

@@ -48,6 +48,7 @@ fn radiance_from_1e_minus_20_to_1e20_in_one_scene() {
     let ctx = ShadingContext {
         p: Vec3::new(0.1, 0.0, 0.0),
         n: Vec3::Z,
+        lobe: Lobe::NONE,
     };
     assert_power_bvh_oracle_pmfs(&scene, &ctx);
     let target = ctx.p;
@@ -79,6 +80,7 @@ fn overflowing_powers_stay_finite_in_every_selector() {
     let ctx = ShadingContext {
         p: Vec3::new(0.1, 0.0, 0.0),
         n: Vec3::Z,
+        lobe: Lobe::NONE,
     };
     assert_power_bvh_oracle_pmfs(&scene, &ctx);
 }
@@ -132,6 +134,7 @@ fn a_million_lights_where_one_holds_99_99_percent_of_the_power() {
     let ctx = ShadingContext {
         p: Vec3::ZERO,
         n: Vec3::Z,
+        lobe: Lobe::NONE,
     };
     let (sum, min) = pmf_sum_and_min_contributing(&selector, &lights, &ctx);
     assert!((sum - 1.0).abs() < 1e-9, "Σ pmf = {sum}");
@@ -172,6 +175,7 @@ fn lights_that_all_have_zero_power_render_black_without_nan() {
     let ctx = ShadingContext {
         p: Vec3::ZERO,
         n: Vec3::Z,
+        lobe: Lobe::NONE,
     };
     // The power selector falls back to uniform; the BVH and the oracle see nothing to choose.
     let power = LightSelector::build(SelectorKind::Power, &mut lights).unwrap();
@@ -233,7 +237,11 @@ fn light_bvh_gives_every_contributing_light_a_finite_positive_pmf_exhaustively()
             let r = (1.0 - z * z).max(0.0).sqrt();
             let phi = std::f32::consts::TAU * b;
             let n = Vec3::new(r * phi.cos(), r * phi.sin(), z);
-            let ctx = ShadingContext { p, n };
+            let ctx = ShadingContext {
+                p,
+                n,
+                lobe: Lobe::NONE,
+            };
             let mut sum = 0.0;
             for l in 0..lights.len() {
                 let pmf = bvh.pmf(&lights, &ctx, l);

@@ -62,6 +62,12 @@
 //! table (town at seed 1000: 5.55, 5.61, 5.54, 5.31, 5.28; at 0.7 the city's mean rose to 8.05,
 //! at 0.5 it was 7.51); weighting each light's term by its emitter's cosine as well made the
 //! town worse (6.40 with a floor of 0.1, 5.40 with 0.5).
+//! At a glossy receiver every lane's value is multiplied by its specular lobe factor
+//! 1 + g / (1 + λ·(1 − cos θm))² ([`Lobe`]; θm the angle from the mirror direction less θb),
+//! which is ≥ 1 and finite, so the lanes that get 0 are the same. One camera sample's lit-surface
+//! MSE (bvh + mis, `bench --spp 1 --repeat 100`, mean over seeds 1000–8000) on the 50k city, whose
+//! dark glass (roughness 0.1) mirrors the lamps, 7.51 → 3.05 (relMSE 7.06 → 6.80); on the town,
+//! whose lit surfaces are all rougher than the factor is used for, unchanged.
 
 use glam::Vec3;
 
@@ -83,6 +89,27 @@ const SPREAD_FLOOR: f32 = 0.5;
 /// The least share of a root lane's T · E · R (its table's plain sum times its weighted
 /// cosines) that its table's receiver-weighted estimate is raised to (`near_field`).
 const DIRECTED_FLOOR: f32 = 0.5;
+
+/// A glossy receiver's specular lobe for the lanes' lobe factor
+/// 1 + g / (1 + λ·(1 − cos θm))², θm = max(0, ∠(r, c − p) − θb): r the mirror direction of
+/// the view direction about the shading normal, λ = 1/(2α²) (GGX's D at normal incidence as a
+/// function of the angle from r, relative to its peak), g the specular lobe's peak over the
+/// diffuse one (f_s·cos / f_d·cos at r). The factor is ≥ 1: it never lowers a lane.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lobe {
+    pub r: Vec3,
+    pub sharpness: f32,
+    pub gain: f32,
+}
+
+impl Lobe {
+    /// No specular lobe: the factor is 1 exactly.
+    pub const NONE: Lobe = Lobe {
+        r: Vec3::ZERO,
+        sharpness: 0.0,
+        gain: 0.0,
+    };
+}
 
 /// The larger of a and b (b when either is NaN), as one SIMD max.
 #[inline(always)]
@@ -145,6 +172,7 @@ pub(super) fn importances(
     node: &WideNode,
     p: Vec3,
     n: Vec3,
+    lobe: &Lobe,
     near: Option<NearTerms>,
 ) -> [f32; LANES] {
     let receiver = n != Vec3::ZERO;
@@ -157,9 +185,17 @@ pub(super) fn importances(
         directed: [0.0; LANES],
     });
     let mut out = [0.0; LANES];
-    for (k, out) in out.iter_mut().enumerate() {
-        let near = (plain[k], directed[k]);
-        *out = lane(&lanes, k, p, n, receiver, use_near, near);
+    // The lobe factor is 1 exactly without a gain: a receiver without a lobe skips it.
+    if lobe.gain > 0.0 {
+        for (k, out) in out.iter_mut().enumerate() {
+            let near = (plain[k], directed[k]);
+            *out = lane::<true>(&lanes, k, p, n, lobe, receiver, use_near, near);
+        }
+    } else {
+        for (k, out) in out.iter_mut().enumerate() {
+            let near = (plain[k], directed[k]);
+            *out = lane::<false>(&lanes, k, p, n, lobe, receiver, use_near, near);
+        }
     }
     out
 }
@@ -223,11 +259,13 @@ impl Decoded {
 }
 
 #[inline(always)]
-fn lane(
+#[allow(clippy::too_many_arguments)]
+fn lane<const GLOSSY: bool>(
     node: &Decoded,
     k: usize,
     p: Vec3,
     n: Vec3,
+    lobe: &Lobe,
     receiver: bool,
     use_near: bool,
     (near, directed): (f32, f32),
@@ -301,6 +339,17 @@ fn lane(
         (true, true) => max(directed, DIRECTED_FLOOR * near * factor),
         (true, false) => near * factor,
         (false, _) => phi / d_sq * factor,
+    };
+    // The lobe factor (`Lobe`); a NaN cosine (p at the centre) gives t = 1.
+    let value = if GLOSSY {
+        let r = lobe.r;
+        let cos_m = -(to_p[0] * r.x + to_p[1] * r.y + to_p[2] * r.z) * inv_dist;
+        let sin_m = sin_of(cos_m);
+        let (cos_g, _) = minus(cos_m, sin_m, cos_b, sin_b);
+        let t = max(1.0 + lobe.sharpness * (1.0 - cos_g), 1.0);
+        value * (1.0 + lobe.gain / (t * t))
+    } else {
+        value
     };
     let value = if value < f32::MAX { value } else { f32::MAX };
     let value = max(value, f32::MIN_POSITIVE);

@@ -66,6 +66,7 @@ use wide::*;
 
 pub use bounds::LightBounds;
 use bounds::*;
+pub use lanes::Lobe;
 pub use traverse::{BinaryTree, LightBvh, RootImportances};
 
 /// Absolute tolerance on the cosines compared in the importance, larger than the

@@ -86,39 +86,17 @@ impl LightBvh {
     }
 
     /// Whether some light in the tree may reach the upper hemisphere of a
-    /// receiver at (p, n) (some root lane has positive importance).
+    /// receiver at (p, n, lobe) (some root lane has positive importance).
     pub fn can_reach(&self, p: Vec3, n: Vec3) -> bool {
         self.root(p, n).is_some()
     }
 
-    /// The root's lane importances at (p, n), or `None` where no light in the
-    /// tree can reach the receiver. A caller that must know this before it
-    /// chooses passes the answer on to [`sample_below`](Self::sample_below),
-    /// which then does not evaluate the root again.
+    /// [`root_with`](Self::root_with) for a receiver without a specular lobe.
     pub fn root(&self, p: Vec3, n: Vec3) -> Option<RootImportances> {
-        #[cfg(target_arch = "x86_64")]
-        if self.avx2 {
-            // SAFETY: `avx2` is true only when the CPU reported AVX2 and FMA.
-            return unsafe { self.root_avx2(p, n) };
-        }
-        self.root_portable(p, n)
+        self.root_with(p, n, Lobe::NONE)
     }
 
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    unsafe fn root_avx2(&self, p: Vec3, n: Vec3) -> Option<RootImportances> {
-        self.root_portable(p, n)
-    }
-
-    #[inline(always)]
-    fn root_portable(&self, p: Vec3, n: Vec3) -> Option<RootImportances> {
-        if !is_finite(p, n) {
-            return None;
-        }
-        self.importances(0, p, n).map(RootImportances)
-    }
-
-    /// [`sample`](Self::sample) from the root `root` evaluated at the same (p, n).
+    /// [`sample_below_with`](Self::sample_below_with) without a specular lobe.
     pub fn sample_below(
         &self,
         root: &RootImportances,
@@ -126,7 +104,56 @@ impl LightBvh {
         n: Vec3,
         u: f64,
     ) -> Option<(usize, f64)> {
-        self.sample_from(p, n, u, Some(root.0))
+        self.sample_below_with(root, p, n, Lobe::NONE, u)
+    }
+
+    /// [`sample_with`](Self::sample_with) for a receiver without a specular lobe.
+    pub fn sample(&self, p: Vec3, n: Vec3, u: f64) -> Option<(usize, f64)> {
+        self.sample_with(p, n, Lobe::NONE, u)
+    }
+
+    /// [`pmf_with`](Self::pmf_with) for a receiver without a specular lobe.
+    pub fn pmf(&self, p: Vec3, n: Vec3, light: usize) -> f64 {
+        self.pmf_with(p, n, Lobe::NONE, light)
+    }
+
+    /// The root's lane importances at (p, n, lobe), or `None` where no light in the
+    /// tree can reach the receiver. A caller that must know this before it
+    /// chooses passes the answer on to [`sample_below`](Self::sample_below),
+    /// which then does not evaluate the root again.
+    pub fn root_with(&self, p: Vec3, n: Vec3, lobe: Lobe) -> Option<RootImportances> {
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            // SAFETY: `avx2` is true only when the CPU reported AVX2 and FMA.
+            return unsafe { self.root_avx2(p, n, lobe) };
+        }
+        self.root_portable(p, n, lobe)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn root_avx2(&self, p: Vec3, n: Vec3, lobe: Lobe) -> Option<RootImportances> {
+        self.root_portable(p, n, lobe)
+    }
+
+    #[inline(always)]
+    fn root_portable(&self, p: Vec3, n: Vec3, lobe: Lobe) -> Option<RootImportances> {
+        if !is_finite(p, n) {
+            return None;
+        }
+        self.importances(0, p, n, lobe).map(RootImportances)
+    }
+
+    /// [`sample`](Self::sample) from the root `root` evaluated at the same (p, n, lobe).
+    pub fn sample_below_with(
+        &self,
+        root: &RootImportances,
+        p: Vec3,
+        n: Vec3,
+        lobe: Lobe,
+        u: f64,
+    ) -> Option<(usize, f64)> {
+        self.sample_from(p, n, lobe, u, Some(root.0))
     }
 
     /// Chooses a light (its id in leaf order) with probability proportional
@@ -134,33 +161,47 @@ impl LightBvh {
     /// is taken when u·Σ I falls in its part [I_<k, I_<k + I_k), and u is
     /// rescaled to [0, 1) within that part. Returns the light and its
     /// probability (the product of the chosen lanes' I_k / Σ I), or `None` when the
-    /// tree is empty, (p, n) is not finite, a node is reached whose lanes all
+    /// tree is empty, (p, n, lobe) is not finite, a node is reached whose lanes all
     /// have importance 0, or the probability underflows to 0.
-    pub fn sample(&self, p: Vec3, n: Vec3, u: f64) -> Option<(usize, f64)> {
-        self.sample_from(p, n, u, None)
+    pub fn sample_with(&self, p: Vec3, n: Vec3, lobe: Lobe, u: f64) -> Option<(usize, f64)> {
+        self.sample_from(p, n, lobe, u, None)
     }
 
     /// [`sample`](Self::sample), the root's importances given or not.
     #[inline]
-    fn sample_from(&self, p: Vec3, n: Vec3, u: f64, root: Option<Importances>) -> Choice {
+    fn sample_from(
+        &self,
+        p: Vec3,
+        n: Vec3,
+        lobe: Lobe,
+        u: f64,
+        root: Option<Importances>,
+    ) -> Choice {
         #[cfg(target_arch = "x86_64")]
         if self.avx2 {
             // SAFETY: `avx2` is true only when the CPU reported AVX2 and FMA.
-            return unsafe { self.walk_avx2(p, n, u, root) };
+            return unsafe { self.walk_avx2(p, n, lobe, u, root) };
         }
-        self.walk(p, n, u, root)
+        self.walk(p, n, lobe, u, root)
     }
 
     /// [`sample`](Self::sample) compiled for AVX2: the lanes in one register.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
-    unsafe fn walk_avx2(&self, p: Vec3, n: Vec3, u: f64, root: Option<Importances>) -> Choice {
-        self.walk(p, n, u, root)
+    unsafe fn walk_avx2(
+        &self,
+        p: Vec3,
+        n: Vec3,
+        lobe: Lobe,
+        u: f64,
+        root: Option<Importances>,
+    ) -> Choice {
+        self.walk(p, n, lobe, u, root)
     }
 
     /// The walk of `sample`; `root`, when given, stands for the root's importances.
     #[inline(always)]
-    fn walk(&self, p: Vec3, n: Vec3, u: f64, root: Option<Importances>) -> Choice {
+    fn walk(&self, p: Vec3, n: Vec3, lobe: Lobe, u: f64, root: Option<Importances>) -> Choice {
         if !is_finite(p, n) {
             return None;
         }
@@ -173,7 +214,7 @@ impl LightBvh {
         let mut pmf = 1.0;
         let (mut importances, mut total) = match root {
             Some(root) => root,
-            None => self.importances(0, p, n)?,
+            None => self.importances(0, p, n, lobe)?,
         };
         loop {
             let target = u * total;
@@ -186,7 +227,7 @@ impl LightBvh {
             // Rescaled only where another choice follows.
             u = ((target - below) / importances[lane]).clamp(0.0, LARGEST_BELOW_ONE);
             index = child as usize;
-            (importances, total) = self.below_root(index, p, n)?;
+            (importances, total) = self.below_root(index, p, n, lobe)?;
         }
     }
 
@@ -194,32 +235,32 @@ impl LightBvh {
     /// (`p`, `n`), bit-identical to the value it returns with it: descends
     /// towards the lane whose id range holds `light`, multiplying the same
     /// per-node probabilities. 0 for ids ≥ [`len`](Self::len).
-    pub fn pmf(&self, p: Vec3, n: Vec3, light: usize) -> f64 {
+    pub fn pmf_with(&self, p: Vec3, n: Vec3, lobe: Lobe, light: usize) -> f64 {
         #[cfg(target_arch = "x86_64")]
         if self.avx2 {
             // SAFETY: `avx2` is true only when the CPU reported AVX2 and FMA.
-            return unsafe { self.pmf_avx2(p, n, light) };
+            return unsafe { self.pmf_avx2(p, n, lobe, light) };
         }
-        self.pmf_portable(p, n, light)
+        self.pmf_portable(p, n, lobe, light)
     }
 
     /// [`pmf`](Self::pmf) compiled for AVX2 (the same arithmetic: no FMA
     /// contraction, so both give the same bits).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
-    unsafe fn pmf_avx2(&self, p: Vec3, n: Vec3, light: usize) -> f64 {
-        self.pmf_portable(p, n, light)
+    unsafe fn pmf_avx2(&self, p: Vec3, n: Vec3, lobe: Lobe, light: usize) -> f64 {
+        self.pmf_portable(p, n, lobe, light)
     }
 
     #[inline(always)]
-    fn pmf_portable(&self, p: Vec3, n: Vec3, light: usize) -> f64 {
+    fn pmf_portable(&self, p: Vec3, n: Vec3, lobe: Lobe, light: usize) -> f64 {
         if light >= self.lights || !is_finite(p, n) {
             return 0.0;
         }
         let light = light as u32;
         let mut index = 0;
         let mut pmf = 1.0;
-        let Some(mut lanes) = self.importances(0, p, n) else {
+        let Some(mut lanes) = self.importances(0, p, n, lobe) else {
             return 0.0;
         };
         loop {
@@ -241,7 +282,7 @@ impl LightBvh {
                 };
             }
             index = child as usize;
-            let Some(below) = self.below_root(index, p, n) else {
+            let Some(below) = self.below_root(index, p, n, lobe) else {
                 return 0.0;
             };
             lanes = below;
@@ -271,26 +312,33 @@ impl LightBvh {
 
     /// The lanes' importances I_k at wide node `index` in f64, and their sum
     /// Σ I (lane k is chosen with probability I_k / Σ I); `None` when the sum
-    /// is 0 or the node does not exist. (p, n) must be finite (see [`is_finite`]).
+    /// is 0 or the node does not exist. (p, n, lobe) must be finite (see [`is_finite`]).
     #[inline(always)]
     pub(super) fn importances(
         &self,
         index: usize,
         p: Vec3,
         n: Vec3,
+        lobe: Lobe,
     ) -> Option<([f64; LANES], f64)> {
         let near = match &self.near {
             Some(field) if index == 0 => field.at(p, n),
             _ => None,
         };
-        self.lane_importances(index, p, n, near)
+        self.lane_importances(index, p, n, lobe, near)
     }
 
     /// [`importances`](Self::importances) at a node other than the root (which alone reads the
     /// near-field table).
     #[inline(always)]
-    fn below_root(&self, index: usize, p: Vec3, n: Vec3) -> Option<([f64; LANES], f64)> {
-        self.lane_importances(index, p, n, None)
+    fn below_root(
+        &self,
+        index: usize,
+        p: Vec3,
+        n: Vec3,
+        lobe: Lobe,
+    ) -> Option<([f64; LANES], f64)> {
+        self.lane_importances(index, p, n, lobe, None)
     }
 
     /// The importances of node `index`'s lanes, with the root's table terms `near` if given.
@@ -300,10 +348,11 @@ impl LightBvh {
         index: usize,
         p: Vec3,
         n: Vec3,
+        lobe: Lobe,
         near: Option<NearTerms>,
     ) -> Option<([f64; LANES], f64)> {
         let node = self.nodes.get(index)?;
-        let importances = importances(node, p, n, near).map(f64::from);
+        let importances = importances(node, p, n, &lobe, near).map(f64::from);
         let total: f64 = importances.iter().sum();
         (total > 0.0).then_some((importances, total))
     }

@@ -200,7 +200,7 @@ fn lane_importance_matches_the_bound_written_with_angles() {
     let mut compared = 0;
     for (p, n) in receivers(&mut rng, &scene, 300) {
         for node in &bvh.nodes {
-            let lanes = importances(node, p, n, None);
+            let lanes = importances(node, p, n, &Lobe::NONE, None);
             let decoded = Decoded::of(node);
             for k in (0..LANES).filter(|&k| node.first[k] != EMPTY_LANE) {
                 let phi = decoded.signed_phi[k];

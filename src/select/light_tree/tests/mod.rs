@@ -197,7 +197,7 @@ pub(super) fn importance(b: &LightBounds, p: Vec3, n: Vec3) -> f32 {
     let (bvh, _) = LightBvh::build(&[*b]);
     bvh.nodes
         .first()
-        .map_or(0.0, |root| importances(root, p, n, None)[0])
+        .map_or(0.0, |root| importances(root, p, n, &Lobe::NONE, None)[0])
 }
 
 /// Interior lanes: (lane, child node index) of wide node `i`.
@@ -227,11 +227,11 @@ pub(super) fn max_depth(bvh: &LightBvh) -> usize {
 
 /// Probability that `sample` stops at a node whose lanes all have
 /// importance 0 (it then returns `None`).
-pub(super) fn dead_end_mass(bvh: &LightBvh, p: Vec3, n: Vec3) -> f64 {
+pub(super) fn dead_end_mass(bvh: &LightBvh, p: Vec3, n: Vec3, lobe: Lobe) -> f64 {
     let mut mass = 0.0;
     let mut stack = vec![(0usize, 1.0f64)];
     while let Some((i, weight)) = stack.pop() {
-        match bvh.importances(i, p, n) {
+        match bvh.importances(i, p, n, lobe) {
             None => mass += weight,
             Some((importances, total)) => stack.extend(
                 interior_lanes(bvh, i)
@@ -275,7 +275,7 @@ pub(super) fn check_frequencies(bvh: &LightBvh, p: Vec3, n: Vec3, m: usize, rng:
             );
         }
     }
-    let dead = dead_end_mass(bvh, p, n);
+    let dead = dead_end_mass(bvh, p, n, Lobe::NONE);
     if bvh.can_reach(p, n) {
         assert!(
             (total + dead - 1.0).abs() < 1e-6,
@@ -297,5 +297,6 @@ pub(super) fn check_frequencies(bvh: &LightBvh, p: Vec3, n: Vec3, m: usize, rng:
 
 mod bounds;
 mod collapse;
+mod lobe;
 mod near_field;
 mod sampling;

@@ -50,7 +50,7 @@ fn contributing_lights_have_positive_pmf() {
             let (bvh, order) = LightBvh::build(&scene.bounds);
             for (p, n) in receivers(&mut rng, &scene, 120) {
                 for node in &bvh.nodes {
-                    let lanes = importances(node, p, n, None);
+                    let lanes = importances(node, p, n, &Lobe::NONE, None);
                     assert!(lanes.iter().all(|i| i.is_finite() && *i >= 0.0));
                 }
                 for (light, &original) in order.iter().enumerate() {
@@ -133,7 +133,7 @@ fn nodes_behind_the_tangent_plane_get_zero() {
     let (bvh, _) = LightBvh::build(&scene.bounds);
     let (p, n) = (Vec3::new(0.0, 0.0, 0.5), Vec3::Z);
     for node in &bvh.nodes {
-        assert_eq!(importances(node, p, n, None), [0.0; LANES]);
+        assert_eq!(importances(node, p, n, &Lobe::NONE, None), [0.0; LANES]);
     }
     assert_eq!(bvh.sample(p, n, 0.5), None);
     assert!((0..bvh.len()).all(|l| bvh.pmf(p, n, l) == 0.0));
@@ -195,7 +195,7 @@ fn deep_trees_keep_exact_pmf() {
         }
         let total: f64 = (0..bvh.len()).map(|l| bvh.pmf(p, n, l)).sum();
         if bvh.can_reach(p, n) {
-            assert!((total + dead_end_mass(&bvh, p, n) - 1.0).abs() < 1e-6);
+            assert!((total + dead_end_mass(&bvh, p, n, Lobe::NONE) - 1.0).abs() < 1e-6);
         }
     }
     println!("deepest sampled leaf: {deepest_sampled}");

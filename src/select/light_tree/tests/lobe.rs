@@ -1,0 +1,66 @@
+//! The specular lobe factor: the pmf keeps exactly the diffuse importance's support, `sample_with`
+//! and `pmf_with` agree bit for bit and sum to the reachable mass, and a light in the lobe gains
+//! probability.
+
+use super::*;
+
+#[test]
+fn a_lobe_keeps_the_support_and_the_exact_pmf() {
+    let mut rng = Rand::new(21);
+    let mut checked = 0;
+    for &count in &[1, 3, 100, 2000] {
+        let scene = random_scene(&mut rng, count);
+        let (bvh, _) = LightBvh::build(&scene.bounds);
+        for (p, n) in receivers(&mut rng, &scene, 40) {
+            let wo = (rng.unit() + n).normalize_or(n);
+            let lobe = Lobe {
+                r: 2.0 * n.dot(wo) * n - wo,
+                sharpness: 10f32.powf(rng.range(-1.0, 4.0)),
+                gain: 10f32.powf(rng.range(-2.0, 4.0)),
+            };
+            assert_eq!(bvh.root_with(p, n, lobe).is_some(), bvh.can_reach(p, n));
+            let mut total = 0.0;
+            for l in 0..bvh.len() {
+                let (plain, glossy) = (bvh.pmf(p, n, l), bvh.pmf_with(p, n, lobe, l));
+                assert_eq!(plain > 0.0, glossy > 0.0, "light {l} p {p} n {n} {lobe:?}");
+                total += glossy;
+            }
+            if bvh.can_reach(p, n) {
+                let mass = total + dead_end_mass(&bvh, p, n, lobe);
+                assert!((mass - 1.0).abs() < 1e-6, "{mass}");
+            }
+            for _ in 0..20 {
+                if let Some((l, pmf)) = bvh.sample_with(p, n, lobe, rng.f64()) {
+                    assert_eq!(pmf.to_bits(), bvh.pmf_with(p, n, lobe, l).to_bits());
+                    checked += 1;
+                }
+            }
+        }
+    }
+    assert!(checked > 1000, "{checked}");
+}
+
+#[test]
+fn a_light_in_the_lobe_gains_probability() {
+    // Two equal lights above the receiver at ±x, facing down; the mirror direction points at +x.
+    let light = |x: f32| LightBounds {
+        lo: Vec3::new(x - 0.05, -0.05, 1.0),
+        hi: Vec3::new(x + 0.05, 0.05, 1.0),
+        phi: 1.0,
+        w: -Vec3::Z,
+        cos_theta_o: 1.0,
+        cos_theta_e: 0.0,
+        two_sided: false,
+    };
+    let (bvh, order) = LightBvh::build(&[light(1.0), light(-1.0)]);
+    let right = order.iter().position(|&i| i == 0).unwrap();
+    let (p, n) = (Vec3::ZERO, Vec3::Z);
+    let lobe = Lobe {
+        r: Vec3::new(1.0, 0.0, 1.0).normalize(),
+        sharpness: 50.0,
+        gain: 100.0,
+    };
+    let (plain, glossy) = (bvh.pmf(p, n, right), bvh.pmf_with(p, n, lobe, right));
+    assert!((plain - 0.5).abs() < 1e-6, "{plain}");
+    assert!(glossy > 0.9 && glossy < 1.0, "{glossy}");
+}
