@@ -92,37 +92,13 @@ struct ShadingPoint {
 }
 
 impl ShadingPoint {
-    /// The selector's receiver: p, the shading normal and the specular lobe (`Lobe`) where
-    /// α ≤ `MAX_LOBE_ALPHA`: r the mirror direction of ωo, λ = 1/(2α²) and
-    /// g = w_s / (4α²·max(n·ωo, 0.1)·w_d), the peak of f_s·cos (F·D(n)/(4 n·ωo), D(n) = 1/(πα²))
-    /// over that of f_d·cos (w_d/π), at most `MAX_LOBE_GAIN` (a metal, w_d = 0, gets it).
+    /// The selector's receiver: p, the shading normal and the BRDF's specular lobe there.
     fn context(&self) -> ShadingContext {
-        /// Rougher lobes (roughness above 0.5) are left to the diffuse importance: on the town,
-        /// whose lit surfaces are all rougher, it raised one camera sample's lit-surface MSE by 2%.
-        const MAX_LOBE_ALPHA: f32 = 0.25;
-        /// The largest gain: the diffuse share keeps at least 1/(1 + g) of a lane's weight.
-        const MAX_LOBE_GAIN: f32 = 300.0;
         let (alpha, w_s, w_d) = self.brdf.lobe_weights();
-        let lobe = if alpha <= MAX_LOBE_ALPHA && w_s > 0.0 {
-            let cos_o = self.ns.dot(self.wo);
-            let a2 = alpha * alpha;
-            let gain = w_s / (4.0 * a2 * cos_o.max(0.1) * w_d);
-            Lobe {
-                r: 2.0 * cos_o * self.ns - self.wo,
-                sharpness: 0.5 / a2,
-                gain: if gain < MAX_LOBE_GAIN {
-                    gain
-                } else {
-                    MAX_LOBE_GAIN
-                },
-            }
-        } else {
-            Lobe::NONE
-        };
         ShadingContext {
             p: self.p,
             n: self.ns,
-            lobe,
+            lobe: Lobe::of_receiver(alpha, w_s, w_d, self.ns, self.wo),
         }
     }
 }

@@ -109,6 +109,35 @@ impl Lobe {
         sharpness: 0.0,
         gain: 0.0,
     };
+
+    /// The lobe of a receiver with unit shading normal `n` seen from unit direction `wo`, whose
+    /// BRDF has GGX roughness α and specular and diffuse albedo estimates `w_s`, `w_d`
+    /// (`Brdf::lobe_weights`), where α ≤ `MAX_LOBE_ALPHA` (else `NONE`): r the mirror direction
+    /// of ωo, λ = 1/(2α²) and g = w_s / (4α²·max(n·ωo, 0.1)·w_d), the peak of f_s·cos
+    /// (F·D(n)/(4 n·ωo), D(n) = 1/(πα²)) over that of f_d·cos (w_d/π), at most `MAX_LOBE_GAIN`
+    /// (a metal, w_d = 0, gets it).
+    pub fn of_receiver(alpha: f32, w_s: f32, w_d: f32, n: Vec3, wo: Vec3) -> Lobe {
+        /// Rougher lobes (roughness above 0.5) are left to the diffuse importance: on the town,
+        /// whose lit surfaces are all rougher, it raised one camera sample's lit-surface MSE by 2%.
+        const MAX_LOBE_ALPHA: f32 = 0.25;
+        /// The largest gain: the diffuse share keeps at least 1/(1 + g) of a lane's weight.
+        const MAX_LOBE_GAIN: f32 = 300.0;
+        if !(alpha <= MAX_LOBE_ALPHA && w_s > 0.0) {
+            return Lobe::NONE;
+        }
+        let cos_o = n.dot(wo);
+        let a2 = alpha * alpha;
+        let gain = w_s / (4.0 * a2 * cos_o.max(0.1) * w_d);
+        Lobe {
+            r: 2.0 * cos_o * n - wo,
+            sharpness: 0.5 / a2,
+            gain: if gain < MAX_LOBE_GAIN {
+                gain
+            } else {
+                MAX_LOBE_GAIN
+            },
+        }
+    }
 }
 
 /// The larger of a and b (b when either is NaN), as one SIMD max.
