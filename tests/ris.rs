@@ -295,6 +295,35 @@ fn ris_on_a_glossy_plane_matches_mis() {
     }
 }
 
+#[test]
+fn the_light_trees_lobe_factor_on_a_glossy_plane_matches_power_mis() {
+    // A smoother dielectric (α = 0.04) under many lights: the tree weighs its lanes by the
+    // specular lobe there, so its choices and their pmf differ from the diffuse importance's;
+    // the expectation is that of power + mis, which knows no lobe.
+    let glossy = Material {
+        roughness: 0.2,
+        specular: 1.0,
+        ..Material::lambert(Vec3::splat(RHO))
+    };
+    let s = || scene(glossy.clone(), &many_quads());
+    let mis = render_film(s(), SelectorKind::Power, Strategy::Mis, 1, 2048, 5);
+    let expected = |i: u32, j: u32| mis.pixels[(j * VIEW.size + i) as usize].mean.x;
+    let variance = |i: u32, j: u32| {
+        mis.pixels[(j * VIEW.size + i) as usize]
+            .variance_of_mean()
+            .x
+    };
+    for strategy in [Strategy::Mis, Strategy::LightSolidAngle] {
+        let film = render_film(s(), SelectorKind::Bvh, strategy, 1, 1024, 11);
+        check_film(
+            &format!("glossy bvh {strategy:?}"),
+            &film,
+            &expected,
+            &variance,
+        );
+    }
+}
+
 /// 96 small downward quads over four decades of radiance around the view: many lights.
 fn many_quads() -> Vec<Emitter> {
     let mut out = Vec::new();

@@ -161,7 +161,7 @@ impl LightBvh {
     /// is taken when u·Σ I falls in its part [I_<k, I_<k + I_k), and u is
     /// rescaled to [0, 1) within that part. Returns the light and its
     /// probability (the product of the chosen lanes' I_k / Σ I), or `None` when the
-    /// tree is empty, (p, n, lobe) is not finite, a node is reached whose lanes all
+    /// tree is empty, (p, n) is not finite, a node is reached whose lanes all
     /// have importance 0, or the probability underflows to 0.
     pub fn sample_with(&self, p: Vec3, n: Vec3, lobe: Lobe, u: f64) -> Option<(usize, f64)> {
         self.sample_from(p, n, lobe, u, None)
