@@ -266,32 +266,37 @@ fn ris_with_one_candidate_is_light_solid_angle() {
     }
 }
 
+/// A glossy dielectric: GGX of the given roughness plus diffuse.
+fn glossy(roughness: f32) -> Material {
+    Material {
+        roughness,
+        specular: 1.0,
+        ..Material::lambert(Vec3::splat(RHO))
+    }
+}
+
+/// `check_film` against another render's pixels (no closed form), with both images' variances
+/// in σ.
+fn check_against(label: &str, film: &Film, reference: &Film) {
+    let pixel = |i: u32, j: u32| &reference.pixels[(j * VIEW.size + i) as usize];
+    let expected = |i: u32, j: u32| pixel(i, j).mean.x;
+    let variance = |i: u32, j: u32| pixel(i, j).variance_of_mean().x;
+    check_film(label, film, &expected, &variance);
+}
+
 #[test]
 fn ris_on_a_glossy_plane_matches_mis() {
     // A rough dielectric (GGX α = 0.16 plus diffuse): no closed form, so the expectation is
-    // that of light-and-BSDF MIS (an unbiased estimator tested against Lambert elsewhere),
-    // with both images' variances in σ.
-    let glossy = Material {
-        roughness: 0.4,
-        specular: 1.0,
-        ..Material::lambert(Vec3::splat(RHO))
-    };
-    let s = || scene(glossy.clone(), &four_quads());
+    // that of light-and-BSDF MIS (an unbiased estimator tested against Lambert elsewhere).
+    let s = || scene(glossy(0.4), &four_quads());
     let mis = render_film(s(), SelectorKind::Power, Strategy::Mis, 1, 2048, 5);
-    let expected = |i: u32, j: u32| mis.pixels[(j * VIEW.size + i) as usize].mean.x;
-    let variance = |i: u32, j: u32| {
-        mis.pixels[(j * VIEW.size + i) as usize]
-            .variance_of_mean()
-            .x
-    };
     for (strategy, m) in [
         (Strategy::Ris, 8),
         (Strategy::RisMis, 1),
         (Strategy::RisMis, 8),
     ] {
         let film = render_film(s(), SelectorKind::Power, strategy, m, 512, 7);
-        let label = format!("glossy {strategy:?} M={m}");
-        check_film(&label, &film, &expected, &variance);
+        check_against(&format!("glossy {strategy:?} M={m}"), &film, &mis);
     }
 }
 
@@ -300,27 +305,11 @@ fn the_light_trees_lobe_factor_on_a_glossy_plane_matches_power_mis() {
     // A smoother dielectric (α = 0.04) under many lights: the tree weighs its lanes by the
     // specular lobe there, so its choices and their pmf differ from the diffuse importance's;
     // the expectation is that of power + mis, which knows no lobe.
-    let glossy = Material {
-        roughness: 0.2,
-        specular: 1.0,
-        ..Material::lambert(Vec3::splat(RHO))
-    };
-    let s = || scene(glossy.clone(), &many_quads());
+    let s = || scene(glossy(0.2), &many_quads());
     let mis = render_film(s(), SelectorKind::Power, Strategy::Mis, 1, 2048, 5);
-    let expected = |i: u32, j: u32| mis.pixels[(j * VIEW.size + i) as usize].mean.x;
-    let variance = |i: u32, j: u32| {
-        mis.pixels[(j * VIEW.size + i) as usize]
-            .variance_of_mean()
-            .x
-    };
     for strategy in [Strategy::Mis, Strategy::LightSolidAngle] {
         let film = render_film(s(), SelectorKind::Bvh, strategy, 1, 1024, 11);
-        check_film(
-            &format!("glossy bvh {strategy:?}"),
-            &film,
-            &expected,
-            &variance,
-        );
+        check_against(&format!("glossy bvh {strategy:?}"), &film, &mis);
     }
 }
 
