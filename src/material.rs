@@ -141,19 +141,25 @@ impl Brdf {
             (_, false) => 0.0,
             (false, true) => 1.0,
             (true, true) => {
-                let w_s = (1.0 - m) * self.specular * 0.04 + m * luminance(self.base_color);
-                let w_d = (1.0 - m) * (1.0 - 0.04 * self.specular) * luminance(self.base_color);
+                let (w_s, w_d) = self.albedo_estimates();
                 (w_s / (w_s + w_d)).clamp(0.1, 0.9)
             }
         }
     }
 
-    /// (α, w_s, w_d): GGX's α and the specular and diffuse albedo estimates of
-    /// `specular_probability` (F at normal incidence, and the diffuse luminance).
-    pub fn lobe_weights(&self) -> (f32, f32, f32) {
+    /// The specular and diffuse albedo estimates (w_s, w_d): F at normal incidence, and the
+    /// diffuse lobe's luminance.
+    #[inline]
+    fn albedo_estimates(&self) -> (f32, f32) {
         let m = self.metallic;
         let w_s = (1.0 - m) * self.specular * 0.04 + m * luminance(self.base_color);
         let w_d = (1.0 - m) * (1.0 - 0.04 * self.specular) * luminance(self.base_color);
+        (w_s, w_d)
+    }
+
+    /// (α, w_s, w_d): GGX's α and the albedo estimates that `specular_probability` weighs.
+    pub fn lobe_weights(&self) -> (f32, f32, f32) {
+        let (w_s, w_d) = self.albedo_estimates();
         (self.alpha, w_s, w_d)
     }
 

@@ -261,7 +261,7 @@ impl Estimator<'_> {
         let mut sum = Vec3::ZERO;
         for slot in 0..self.k {
             let choice = match first_light {
-                Some(l) if slot == 0 => Some((l, self.prefetched_pmf(selector, &ctx, l))),
+                Some(l) if slot == 0 => Some((l, selector.pmf(self.lights, &ctx, l))),
                 _ => selector.sample(self.lights, &ctx, cs.light_choice(slot)),
             };
             let Some((l, p_l)) = choice else {

@@ -13,7 +13,7 @@ use super::Strategy;
 use crate::accel::{Hit, PACKET};
 use crate::sampling::prefetch::prefetch;
 use crate::sampling::sampler::CameraSample;
-use crate::select::{LightSelector, ShadingContext};
+use crate::select::LightSelector;
 
 impl Estimator<'_> {
     /// Starts loading the bins and lights that the K light choices of each of `samples` read,
@@ -53,21 +53,6 @@ impl Estimator<'_> {
                 table.prefetch(l);
                 prefetch(&self.lights.lights[l]);
             }
-        }
-    }
-
-    /// p_l of a light that `prefetch_lights` chose: the selector's `pmf`, read straight from
-    /// the alias table for the power selector (the only one it chooses for).
-    #[inline]
-    pub(super) fn prefetched_pmf(
-        &self,
-        selector: &LightSelector,
-        ctx: &ShadingContext,
-        l: usize,
-    ) -> f64 {
-        match selector {
-            LightSelector::Power(table) => table.pmf(l),
-            other => other.pmf(self.lights, ctx, l),
         }
     }
 

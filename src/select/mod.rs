@@ -82,6 +82,7 @@ impl LightSelector {
     }
 
     /// The probability that `sample` returns `light` at this shading point.
+    #[inline]
     pub fn pmf(&self, lights: &Lights, ctx: &ShadingContext, light: usize) -> f64 {
         match self {
             LightSelector::Uniform { count } => 1.0 / *count as f64,

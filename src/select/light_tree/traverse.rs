@@ -86,7 +86,8 @@ impl LightBvh {
     }
 
     /// Whether some light in the tree may reach the upper hemisphere of a
-    /// receiver at (p, n, lobe) (some root lane has positive importance).
+    /// receiver at (p, n) (some root lane has positive importance; a specular lobe
+    /// never makes a lane 0).
     pub fn can_reach(&self, p: Vec3, n: Vec3) -> bool {
         self.root(p, n).is_some()
     }
@@ -94,17 +95,6 @@ impl LightBvh {
     /// [`root_with`](Self::root_with) for a receiver without a specular lobe.
     pub fn root(&self, p: Vec3, n: Vec3) -> Option<RootImportances> {
         self.root_with(p, n, Lobe::NONE)
-    }
-
-    /// [`sample_below_with`](Self::sample_below_with) without a specular lobe.
-    pub fn sample_below(
-        &self,
-        root: &RootImportances,
-        p: Vec3,
-        n: Vec3,
-        u: f64,
-    ) -> Option<(usize, f64)> {
-        self.sample_below_with(root, p, n, Lobe::NONE, u)
     }
 
     /// [`sample_with`](Self::sample_with) for a receiver without a specular lobe.
@@ -119,7 +109,7 @@ impl LightBvh {
 
     /// The root's lane importances at (p, n, lobe), or `None` where no light in the
     /// tree can reach the receiver. A caller that must know this before it
-    /// chooses passes the answer on to [`sample_below`](Self::sample_below),
+    /// chooses passes the answer on to [`sample_below_with`](Self::sample_below_with),
     /// which then does not evaluate the root again.
     pub fn root_with(&self, p: Vec3, n: Vec3, lobe: Lobe) -> Option<RootImportances> {
         #[cfg(target_arch = "x86_64")]

@@ -259,7 +259,7 @@ fn a_root_evaluated_first_gives_the_same_choices() {
         reached += 1;
         for _ in 0..8 {
             let u = rng.f64();
-            let below = bvh.sample_below(&root, p, n, u);
+            let below = bvh.sample_below_with(&root, p, n, Lobe::NONE, u);
             assert_eq!(below, bvh.sample(p, n, u), "p {p} n {n} u {u}");
             if let Some((light, pmf)) = below {
                 assert_eq!(pmf.to_bits(), bvh.pmf(p, n, light).to_bits());
