@@ -32,6 +32,7 @@ use obvhs::ray::Ray;
 /// ray, so a node's test loads the near and far bytes directly instead of loading both and
 /// picking by the direction's sign.
 #[cfg(target_arch = "x86_64")]
+#[derive(Clone, Copy)]
 pub(super) struct NodeRay {
     origin: Vec3A,
     inv_direction: Vec3A,
@@ -42,6 +43,7 @@ pub(super) struct NodeRay {
 
 #[cfg(target_arch = "x86_64")]
 impl NodeRay {
+    #[inline]
     pub(super) fn new(ray: &Ray) -> NodeRay {
         let lower = [
             offset_of!(CwBvhNode, child_min_x),

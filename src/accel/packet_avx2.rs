@@ -54,8 +54,12 @@ impl Accel {
     #[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,lzcnt")]
     pub(super) unsafe fn closest_hits_avx2(&self, rays: &mut [Ray], hits: &mut [Option<Hit>]) {
         debug_assert!(rays.len() <= PACKET && hits.len() == rays.len());
-        let node_rays: [_; PACKET] =
-            std::array::from_fn(|i| node_avx2::NodeRay::new(&rays[i.min(rays.len() - 1)]));
+        // Lanes past the last ray repeat it. A plain loop rather than `array::from_fn`, whose
+        // closure the compiler may leave out of line (8 calls per packet).
+        let mut node_rays = [node_avx2::NodeRay::new(&rays[rays.len() - 1]); PACKET];
+        for (node_ray, ray) in node_rays.iter_mut().zip(rays.iter()) {
+            *node_ray = node_avx2::NodeRay::new(ray);
+        }
         let reach = rays.iter().fold(0.0f32, |m, r| m.max(r.tmax));
         let mut packet = Packet {
             lanes: Lanes::new(rays),

@@ -144,6 +144,9 @@ impl TriangleLight {
     /// `spherical_at` past its cheap test: Arvo's set-up, whole or split.
     #[inline(never)]
     fn spherical_view(&self, p: Vec3) -> Option<SolidAngleView> {
+        if self.solid_angle_small_by_plane(p) {
+            return None;
+        }
         let view = SphericalTriangle::new(p, self.vertices())?;
         let omega = view.solid_angle();
         if omega <= MIN_SPHERICAL_SOLID_ANGLE {
@@ -181,6 +184,32 @@ impl TriangleLight {
             .max((to_p0 + self.e1).length_squared())
             .max((to_p0 + self.e2).length_squared());
         std::f32::consts::TAU * r2 < 0.99 * MIN_SPHERICAL_SOLID_ANGLE * (p - c).length_squared()
+    }
+
+    /// Whether Ω from p is surely at most MIN_SPHERICAL_SOLID_ANGLE by a bound that also counts
+    /// how obliquely the plane is seen: each point x of the triangle subtends dω = h/|p − x|³ dA,
+    /// h the distance from p to the plane, so Ω ≤ A·h / r³ where r = |p − c| − R ≤ |p − x| (the
+    /// ball about the vertices' mean c whose radius R reaches the farthest vertex holds the
+    /// triangle). A·h is half the triple product |(v0 − p)·((v1 − v0) × (v2 − v0))|. From the
+    /// same vertices as the exact Ω; r is lowered by, and the triple product raised by, more
+    /// than their f32 rounding can reach (a few ulps of |p − c| + R and of |v0 − p|·|v1 − v0|·
+    /// |v2 − v0| ≤ (|p − c| + R)·4R²), and the 1% margin of `solid_angle_surely_small` stays,
+    /// so it never says yes where the exact Ω exceeds the threshold. It spares the set-up where
+    /// the receiver sees a nearby triangle's plane at a slant, which the ball bound cannot tell.
+    fn solid_angle_small_by_plane(&self, p: Vec3) -> bool {
+        let [v0, v1, v2] = self.vertices();
+        let c = (v0 + v1 + v2) * (1.0 / 3.0);
+        let r2 = (v0 - c)
+            .length_squared()
+            .max((v1 - c).length_squared())
+            .max((v2 - c).length_squared());
+        let (distance, radius) = ((p - c).length(), r2.sqrt());
+        let reach = distance + radius;
+        let nearest = distance - radius - 1e-6 * reach;
+        let triple = (v0 - p).dot((v1 - v0).cross(v2 - v0)).abs() + 4e-6 * reach * r2;
+        // False where the ball reaches p (or a value is not finite).
+        nearest > 0.0
+            && 0.5 * triple < 0.99 * MIN_SPHERICAL_SOLID_ANGLE * (nearest * nearest * nearest)
     }
 
     /// Whether no point of this light can send light to a receiver at p with geometric normal
@@ -310,11 +339,12 @@ mod tests {
     }
 
     #[test]
-    fn the_solid_angle_shortcut_only_skips_triangles_below_the_threshold() {
+    fn the_solid_angle_shortcuts_only_skip_triangles_below_the_threshold() {
         use rand_core::{Rng, SeedableRng};
         let mut rng = rand_pcg::Pcg32::seed_from_u64(3);
         let mut u = move || (rng.next_u32() >> 8) as f32 / (1u32 << 24) as f32;
         let (mut skipped, mut near_threshold) = (0, 0);
+        let (mut by_plane, mut plane_near_threshold) = (0, 0);
         for _ in 0..200_000 {
             // Slivers and fat triangles, seen from 1 to 1000 sizes away.
             let size = 0.01 + u();
@@ -345,12 +375,23 @@ mod tests {
                 skipped += 1;
                 assert!(omega <= MIN_SPHERICAL_SOLID_ANGLE, "Ω {omega} from {p}");
             }
+            if light.solid_angle_small_by_plane(p) {
+                by_plane += 1;
+                assert!(
+                    omega <= MIN_SPHERICAL_SOLID_ANGLE,
+                    "Ω {omega} from {p} (plane)"
+                );
+                plane_near_threshold += (omega > 0.5 * MIN_SPHERICAL_SOLID_ANGLE) as u32;
+            }
             near_threshold += (omega > 0.5 * MIN_SPHERICAL_SOLID_ANGLE
                 && omega <= MIN_SPHERICAL_SOLID_ANGLE) as u32;
         }
         assert!(
-            skipped > 20_000 && near_threshold > 1000,
-            "{skipped} {near_threshold}"
+            skipped > 20_000
+                && by_plane > skipped + skipped / 2
+                && near_threshold > 1000
+                && plane_near_threshold > 3000,
+            "{skipped} {by_plane} {near_threshold} {plane_near_threshold}"
         );
     }
 
