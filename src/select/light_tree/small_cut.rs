@@ -28,8 +28,12 @@ struct Fewest {
 }
 
 /// [`Fewest`] of every binary node of one small subtree (depth-first: node `root + i` at i).
-struct Table {
+/// An entry depends on its node's subtree only, so the table of a subtree serves the smaller
+/// subtrees inside it as well: the wide nodes below a small subtree's root reuse its table.
+pub(super) struct Table {
     root: usize,
+    /// Its binary nodes: `root .. root + len`.
+    len: usize,
     fewest: [Fewest; 2 * SMALL_SUBTREE - 1],
 }
 
@@ -38,6 +42,7 @@ impl Table {
     fn new(binary: &[Node], root: Lane) -> Table {
         let mut table = Table {
             root: root.index,
+            len: 2 * root.count - 1,
             fewest: [Fewest::default(); 2 * SMALL_SUBTREE - 1],
         };
         for i in (0..2 * root.count - 1).rev() {
@@ -58,6 +63,11 @@ impl Table {
             };
         }
         table
+    }
+
+    /// Whether the subtree of `lane` is within this table's.
+    fn covers(&self, lane: Lane) -> bool {
+        self.root <= lane.index && lane.index + 2 * lane.count - 1 <= self.root + self.len
     }
 
     fn get(&self, index: usize) -> Fewest {
@@ -136,9 +146,13 @@ pub(super) fn small_count(binary: &[Node], start: Lane) -> usize {
 /// The lanes of the wide node rooted at interior binary node `start` (at most
 /// [`SMALL_SUBTREE`] lights): the cut with the fewest wide nodes in all, in light-id order;
 /// lanes left over then open, largest [`opening_priority`] first, the interior lanes whose two
-/// children as lanes add no wide node.
-pub(super) fn small_cut(binary: &[Node], start: Lane) -> OpenLanes {
-    let table = Table::new(binary, start);
+/// children as lanes add no wide node. `cache` holds the table last made, which is reused when
+/// it covers `start` and replaced by `start`'s otherwise.
+pub(super) fn small_cut(binary: &[Node], start: Lane, cache: &mut Option<Table>) -> OpenLanes {
+    if !cache.as_ref().is_some_and(|table| table.covers(start)) {
+        *cache = None;
+    }
+    let table = cache.get_or_insert_with(|| Table::new(binary, start));
     let mut lanes = [None; LANES];
     let mut used = 0;
     table.cut(binary, start, &mut lanes, &mut used);

@@ -9,7 +9,9 @@ use super::*;
 
 /// A light as the build sees it: sanitised bounds plus its original index.
 /// Laid out so that (lo, cos θo), (hi, Φ) and (w, cos θe) are each 16
-/// consecutive bytes, which the binning loads as one SIMD register.
+/// consecutive bytes, which the binning loads as one SIMD register; 52 bytes
+/// in all (the index and the two-sided flag share a word), which each level's
+/// partition moves.
 #[derive(Clone, Copy, Debug)]
 #[repr(C)]
 pub(super) struct Prim {
@@ -19,9 +21,12 @@ pub(super) struct Prim {
     pub(super) phi: f32,
     pub(super) w: Vec3,
     pub(super) cos_e: f32,
-    pub(super) id: u32,
-    pub(super) two_sided: bool,
+    /// The original index (< 2³¹), with [`TWO_SIDED_PRIM`] set for two-sided lights.
+    id_and_sides: u32,
 }
+
+/// Set in [`Prim`]'s packed index for two-sided lights.
+const TWO_SIDED_PRIM: u32 = 1 << 31;
 
 impl Prim {
     /// Stands for a light left out until it is removed (Φ = 0).
@@ -32,8 +37,7 @@ impl Prim {
         phi: 0.0,
         cos_o: -1.0,
         cos_e: 0.0,
-        id: 0,
-        two_sided: false,
+        id_and_sides: 0,
     };
 
     /// `None` for lights left out: Φ not > 0, a non-finite field, or i ≥ 2³¹.
@@ -63,9 +67,13 @@ impl Prim {
             phi: b.phi,
             cos_o,
             cos_e: b.cos_theta_e.clamp(-1.0, 1.0),
-            id,
-            two_sided: b.two_sided,
+            id_and_sides: id | if b.two_sided { TWO_SIDED_PRIM } else { 0 },
         })
+    }
+
+    /// The light's original index.
+    pub(super) fn id(&self) -> u32 {
+        self.id_and_sides & !TWO_SIDED_PRIM
     }
 
     pub(super) fn centroid(&self) -> Vec3A {
@@ -87,7 +95,7 @@ impl Prim {
             w: self.w,
             cos_theta_o: self.cos_o,
             cos_theta_e: self.cos_e,
-            two_sided: self.two_sided,
+            two_sided: self.id_and_sides & TWO_SIDED_PRIM != 0,
         }
     }
 }

@@ -387,7 +387,10 @@ pub(super) fn binary_tree(
         .into_par_iter()
         .map(|i| Prim::new(i, &bounds_of(i)).unwrap_or(Prim::LEFT_OUT))
         .collect();
-    prims.retain(|p| p.phi > 0.0);
+    // Retained only when some light is left out: the scan alone is a serial pass over them.
+    if prims.par_iter().any(|p| p.phi <= 0.0) {
+        prims.retain(|p| p.phi > 0.0);
+    }
     let (boxes, centroids) = prims
         .par_iter()
         .map(|p| (p.aabb(), Aabb::point(p.centroid())))
@@ -409,7 +412,7 @@ pub(super) fn binary_tree(
         };
         tree.build(&grid, centroids);
     }
-    let order = prims.iter().map(|p| p.id).collect();
+    let order = prims.par_iter().map(Prim::id).collect();
     let points = prims
         .par_iter()
         .map(|p| PowerPoint {

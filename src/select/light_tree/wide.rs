@@ -13,7 +13,7 @@
 //! parent links. The nodes of a node's interior lanes are consecutive, so one
 //! index per node finds them all.
 
-use glam::{DVec3, Vec3};
+use glam::{DVec3, Vec3, Vec3A};
 use rayon::prelude::*;
 
 use super::*;
@@ -224,8 +224,9 @@ pub(super) fn collapse(
     let mut wide = vec![WideNode::empty()];
     let mut reach = vec![[0.0; LANES]];
     let mut pending = vec![(root, 0)];
+    let mut tables = None;
     while let Some((start, at)) = pending.pop() {
-        let lanes = open(binary, start);
+        let lanes = open(binary, start, &mut tables);
         let children = wide.len() as u32;
         for &lane in interior(binary, &lanes) {
             let child = (lane, wide.len());
@@ -287,22 +288,25 @@ const PARALLEL_POWER_MIN: usize = 1 << 16;
 /// The power centre c = Σ Φ_i x_i / Σ Φ_i of `points` and their spread about it, the RMS
 /// distance σ = (Σ Φ_i |x_i − c|² / Σ Φ_i)^½, summed in f64 relative to `origin` (a point
 /// near them: the lane's sphere centre) so that σ² = E|x − o|² − |c − o|² keeps its digits far
-/// from the world's origin; and the points' box relative to `origin`.
+/// from the world's origin; and the points' box relative to `origin`. The box is taken over the
+/// f32 points and moved by −`origin` once: rounding x − o is monotonic in x, so that is the box
+/// of the points' f64 offsets, exactly.
 fn power_moments(points: &[PowerPoint], origin: DVec3) -> (DVec3, f64, (DVec3, DVec3)) {
-    type Sums = (DVec3, f64, f64, DVec3, DVec3);
+    type Sums = (DVec3, f64, f64, Vec3A, Vec3A);
     let add = |(first, second, phi, lo, hi): Sums, p: &PowerPoint| {
         let w = f64::from(p.phi);
         let x = p.position.as_dvec3() - origin;
+        let at = Vec3A::from(p.position);
         (
             first + x * w,
             second + x.length_squared() * w,
             phi + w,
-            lo.min(x),
-            hi.max(x),
+            lo.min(at),
+            hi.max(at),
         )
     };
     let merge = |a: Sums, b: Sums| (a.0 + b.0, a.1 + b.1, a.2 + b.2, a.3.min(b.3), a.4.max(b.4));
-    let zero = || (DVec3::ZERO, 0.0, 0.0, DVec3::MAX, DVec3::MIN);
+    let zero = || (DVec3::ZERO, 0.0, 0.0, Vec3A::MAX, Vec3A::MIN);
     let (first, second, phi, lo, hi) = if points.len() >= PARALLEL_POWER_MIN {
         points.par_iter().fold(zero, add).reduce(zero, merge)
     } else {
@@ -312,7 +316,7 @@ fn power_moments(points: &[PowerPoint], origin: DVec3) -> (DVec3, f64, (DVec3, D
     (
         origin + mean,
         (second / phi - mean.length_squared()).max(0.0).sqrt(),
-        (lo, hi),
+        (lo.as_dvec3() - origin, hi.as_dvec3() - origin),
     )
 }
 
@@ -335,8 +339,11 @@ fn collapse_block(
     let mut used = 0;
     let mut root = (WideNode::empty(), [0.0; LANES]);
     let mut pending = vec![(start, None)];
+    // The pending lanes are taken depth first, so the wide nodes of a small subtree come one
+    // after the other and share its table.
+    let mut tables = None;
     while let Some((start, at)) = pending.pop() {
-        let lanes = open(binary, start);
+        let lanes = open(binary, start, &mut tables);
         let children = base + used as u32;
         for &lane in interior(binary, &lanes) {
             pending.push((lane, Some(used)));
@@ -357,8 +364,9 @@ fn collapse_block(
 pub(super) fn count_wide(binary: &[Node], start: Lane) -> usize {
     let mut count = 1;
     let mut pending = vec![start];
+    let mut tables = None;
     while let Some(start) = pending.pop() {
-        for &lane in interior(binary, &open(binary, start)) {
+        for &lane in interior(binary, &open(binary, start, &mut tables)) {
             if lane.count <= SMALL_SUBTREE {
                 count += small_count(binary, lane);
             } else {
@@ -373,10 +381,11 @@ pub(super) fn count_wide(binary: &[Node], start: Lane) -> usize {
 /// The lanes of the wide node rooted at binary node `start`: `start` itself if it is a leaf;
 /// for subtrees of at most [`SMALL_SUBTREE`] lights the cut with the fewest wide nodes
 /// ([`small_cut`]); else its children, with the interior lane of largest
-/// [`opening_priority`] opened while fewer than eight lanes are used.
-fn open(binary: &[Node], start: Lane) -> OpenLanes {
+/// [`opening_priority`] opened while fewer than eight lanes are used. `tables` is
+/// [`small_cut`]'s cache.
+fn open(binary: &[Node], start: Lane, tables: &mut Option<Table>) -> OpenLanes {
     if start.count <= SMALL_SUBTREE && !binary[start.index].is_leaf() {
-        return small_cut(binary, start);
+        return small_cut(binary, start, tables);
     }
     let mut lanes = [None; LANES];
     lanes[0] = Some(start);
