@@ -308,7 +308,13 @@ fn power_moments(points: &[PowerPoint], origin: DVec3) -> (DVec3, f64, (DVec3, D
     let merge = |a: Sums, b: Sums| (a.0 + b.0, a.1 + b.1, a.2 + b.2, a.3.min(b.3), a.4.max(b.4));
     let zero = || (DVec3::ZERO, 0.0, 0.0, Vec3A::MAX, Vec3A::MIN);
     let (first, second, phi, lo, hi) = if points.len() >= PARALLEL_POWER_MIN {
-        points.par_iter().fold(zero, add).reduce(zero, merge)
+        // Fixed chunks summed in order: the same sums for any thread count (rayon's own
+        // fold splits where work is stolen, so its order of f64 sums would vary).
+        let chunks: Vec<Sums> = points
+            .par_chunks(PARALLEL_POWER_MIN / 4)
+            .map(|chunk| chunk.iter().fold(zero(), add))
+            .collect();
+        chunks.into_iter().fold(zero(), merge)
     } else {
         points.iter().fold(zero(), add)
     };
