@@ -150,6 +150,13 @@ fn max(a: f32, b: f32) -> f32 {
     }
 }
 
+/// a · b with fused multiply-adds (correctly rounded on every CPU, so the bits do not depend
+/// on which copy of the walk runs).
+#[inline(always)]
+fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
+    a[2].mul_add(b[2], a[1].mul_add(b[1], a[0] * b[0]))
+}
+
 /// (cos, sin) of max(0, α − β) from those of α and β, α, β ∈ [0, π].
 #[inline(always)]
 fn minus(cos_a: f32, sin_a: f32, cos_b: f32, sin_b: f32) -> (f32, f32) {
@@ -157,8 +164,8 @@ fn minus(cos_a: f32, sin_a: f32, cos_b: f32, sin_b: f32) -> (f32, f32) {
         (1.0, 0.0)
     } else {
         (
-            cos_a * cos_b + sin_a * sin_b,
-            max(sin_a * cos_b - cos_a * sin_b, 0.0),
+            cos_a.mul_add(cos_b, sin_a * sin_b),
+            max(sin_a.mul_add(cos_b, -(cos_a * sin_b)), 0.0),
         )
     }
 }
@@ -171,7 +178,10 @@ fn plus(cos_a: f32, sin_a: f32, cos_b: f32, sin_b: f32) -> (f32, f32) {
     if cos_a + cos_b <= 0.0 {
         (-1.0, 0.0)
     } else {
-        (cos_a * cos_b - sin_a * sin_b, sin_a * cos_b + cos_a * sin_b)
+        (
+            cos_a.mul_add(cos_b, -(sin_a * sin_b)),
+            sin_a.mul_add(cos_b, cos_a * sin_b),
+        )
     }
 }
 
@@ -304,7 +314,7 @@ fn lane<const GLOSSY: bool>(
         p.y - node.centre[1][k],
         p.z - node.centre[2][k],
     ];
-    let dist_sq = to_p[0] * to_p[0] + to_p[1] * to_p[1] + to_p[2] * to_p[2];
+    let dist_sq = dot(to_p, to_p);
     let radius = node.radius[k];
     let radius_sq = radius * radius;
     let inv_dist = 1.0 / dist_sq.sqrt();
@@ -322,7 +332,7 @@ fn lane<const GLOSSY: bool>(
     let signed_phi = node.signed_phi[k];
     let phi = signed_phi.abs();
     let axis = [node.axis[0][k], node.axis[1][k], node.axis[2][k]];
-    let cos_w = (axis[0] * to_p[0] + axis[1] * to_p[1] + axis[2] * to_p[2]) * inv_dist;
+    let cos_w = dot(axis, to_p) * inv_dist;
     let cos_w = if signed_phi < 0.0 { cos_w.abs() } else { cos_w };
     let sin_w = sin_of(cos_w);
     let cos_o = node.cos_o[k];
@@ -336,7 +346,7 @@ fn lane<const GLOSSY: bool>(
     let (cos_p_sharp, _) = minus(cos_w, sin_w, cos_os, sin_os);
     let emitted = weighted(cos_p_sharp, cos_p, outside_sharp, outside);
 
-    let cos_i = -(to_p[0] * n.x + to_p[1] * n.y + to_p[2] * n.z) * inv_dist;
+    let cos_i = -dot(to_p, n.to_array()) * inv_dist;
     let sin_i = sin_of(cos_i);
     let (cos_r, _) = minus(cos_i, sin_i, cos_b, sin_b);
     let receiver_rejects = receiver & (cos_r <= -COS_SLACK);
@@ -354,12 +364,11 @@ fn lane<const GLOSSY: bool>(
         p.y - node.power_centre[1][k],
         p.z - node.power_centre[2][k],
     ];
-    let power_dist_sq =
-        to_power[0] * to_power[0] + to_power[1] * to_power[1] + to_power[2] * to_power[2];
+    let power_dist_sq = dot(to_power, to_power);
     let spread_sq = node.spread_sq[k];
     let d_sq = max(
         max(
-            power_dist_sq - SPREAD_WEIGHT * spread_sq,
+            (-SPREAD_WEIGHT).mul_add(spread_sq, power_dist_sq),
             MIN_DISTANCE_SQ * radius_sq,
         ),
         max(SPREAD_FLOOR * spread_sq, f32::MIN_POSITIVE),
@@ -372,10 +381,10 @@ fn lane<const GLOSSY: bool>(
     // The lobe factor (`Lobe`); a NaN cosine (p at the centre) gives t = 1.
     let value = if GLOSSY {
         let r = lobe.r;
-        let cos_m = -(to_p[0] * r.x + to_p[1] * r.y + to_p[2] * r.z) * inv_dist;
+        let cos_m = -dot(to_p, r.to_array()) * inv_dist;
         let sin_m = sin_of(cos_m);
         let (cos_g, _) = minus(cos_m, sin_m, cos_b, sin_b);
-        let t = max(1.0 + lobe.sharpness * (1.0 - cos_g), 1.0);
+        let t = max(lobe.sharpness.mul_add(1.0 - cos_g, 1.0), 1.0);
         value * (1.0 + lobe.gain / (t * t))
     } else {
         value

@@ -198,7 +198,7 @@ impl NearField {
         for (offset, weight) in offsets.into_iter().zip(weights) {
             let sums = self.plain(first + offset);
             for l in 0..LANES {
-                plain[l] += weight * sums[l];
+                plain[l] = weight.mul_add(sums[l], plain[l]);
             }
         }
         // The shares of the grid point nearest p.
@@ -207,7 +207,7 @@ impl NearField {
         let nearest = first + offsets[corner];
         let [x, y, z] = facing.map(|a| self.share(nearest, a));
         let directed: [f32; LANES] = std::array::from_fn(|l| {
-            plain[l] * (along[0] * x[l] + along[1] * y[l] + along[2] * z[l])
+            plain[l] * along[2].mul_add(z[l], along[1].mul_add(y[l], along[0] * x[l]))
         });
         Some(NearTerms { plain, directed })
     }

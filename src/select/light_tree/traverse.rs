@@ -27,7 +27,7 @@ pub struct LightBvh {
     /// The root lanes' distance and direction terms near the lights ([`NearField`]).
     pub(super) near: Option<NearField>,
     pub(super) lights: usize,
-    /// Whether the CPU has AVX2 and FMA (`sample` and `pmf` then run a copy
+    /// Whether the CPU has AVX2, FMA and POPCNT (`sample` and `pmf` then run a copy
     /// compiled for them).
     pub(super) avx2: bool,
 }
@@ -114,14 +114,14 @@ impl LightBvh {
     pub fn root_with(&self, p: Vec3, n: Vec3, lobe: Lobe) -> Option<RootImportances> {
         #[cfg(target_arch = "x86_64")]
         if self.avx2 {
-            // SAFETY: `avx2` is true only when the CPU reported AVX2 and FMA.
+            // SAFETY: `avx2` is true only when the CPU reported AVX2, FMA and POPCNT.
             return unsafe { self.root_avx2(p, n, lobe) };
         }
         self.root_portable(p, n, lobe)
     }
 
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
+    #[target_feature(enable = "avx2,fma,popcnt")]
     unsafe fn root_avx2(&self, p: Vec3, n: Vec3, lobe: Lobe) -> Option<RootImportances> {
         self.root_portable(p, n, lobe)
     }
@@ -169,7 +169,7 @@ impl LightBvh {
     ) -> Choice {
         #[cfg(target_arch = "x86_64")]
         if self.avx2 {
-            // SAFETY: `avx2` is true only when the CPU reported AVX2 and FMA.
+            // SAFETY: `avx2` is true only when the CPU reported AVX2, FMA and POPCNT.
             return unsafe { self.walk_avx2(p, n, lobe, u, root) };
         }
         self.walk(p, n, lobe, u, root)
@@ -177,7 +177,7 @@ impl LightBvh {
 
     /// [`sample`](Self::sample) compiled for AVX2: the lanes in one register.
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
+    #[target_feature(enable = "avx2,fma,popcnt")]
     unsafe fn walk_avx2(
         &self,
         p: Vec3,
@@ -228,16 +228,17 @@ impl LightBvh {
     pub fn pmf_with(&self, p: Vec3, n: Vec3, lobe: Lobe, light: usize) -> f64 {
         #[cfg(target_arch = "x86_64")]
         if self.avx2 {
-            // SAFETY: `avx2` is true only when the CPU reported AVX2 and FMA.
+            // SAFETY: `avx2` is true only when the CPU reported AVX2, FMA and POPCNT.
             return unsafe { self.pmf_avx2(p, n, lobe, light) };
         }
         self.pmf_portable(p, n, lobe, light)
     }
 
-    /// [`pmf`](Self::pmf) compiled for AVX2 (the same arithmetic: no FMA
-    /// contraction, so both give the same bits).
+    /// [`pmf`](Self::pmf) compiled for AVX2 (the same arithmetic: the lanes' fused
+    /// multiply-adds are explicit and correctly rounded in both copies, and nothing else is
+    /// contracted, so both give the same bits).
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
+    #[target_feature(enable = "avx2,fma,popcnt")]
     unsafe fn pmf_avx2(&self, p: Vec3, n: Vec3, lobe: Lobe, light: usize) -> f64 {
         self.pmf_portable(p, n, lobe, light)
     }
