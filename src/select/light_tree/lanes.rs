@@ -214,8 +214,19 @@ pub(super) fn importances(
     lobe: &Lobe,
     near: Option<NearTerms>,
 ) -> [f32; LANES] {
+    decoded_importances(&Decoded::of(node), p, n, lobe, near)
+}
+
+/// [`importances`] of a node already decoded (the same bits).
+#[inline(always)]
+pub(super) fn decoded_importances(
+    lanes: &Decoded,
+    p: Vec3,
+    n: Vec3,
+    lobe: &Lobe,
+    near: Option<NearTerms>,
+) -> [f32; LANES] {
     let receiver = n != Vec3::ZERO;
-    let lanes = Decoded::of(node);
     // A flag for the node and a plain array, not an Option per lane: the lanes then stay one
     // SIMD computation (an Option per lane made criterion's `sample` 980 ns against 315).
     let use_near = near.is_some();
@@ -228,12 +239,12 @@ pub(super) fn importances(
     if lobe.gain > 0.0 {
         for (k, out) in out.iter_mut().enumerate() {
             let near = (plain[k], directed[k]);
-            *out = lane::<true>(&lanes, k, p, n, lobe, receiver, use_near, near);
+            *out = lane::<true>(lanes, k, p, n, lobe, receiver, use_near, near);
         }
     } else {
         for (k, out) in out.iter_mut().enumerate() {
             let near = (plain[k], directed[k]);
-            *out = lane::<false>(&lanes, k, p, n, lobe, receiver, use_near, near);
+            *out = lane::<false>(lanes, k, p, n, lobe, receiver, use_near, near);
         }
     }
     out
@@ -242,6 +253,7 @@ pub(super) fn importances(
 /// A wide node's lane bounds in f32, one array per field: each lane's bounding sphere (centre,
 /// radius), power centre, cone axis (length within 1.5e-5 of 1, 2.7e-6 on average), cos θo,
 /// cos θe and signed Φ.
+#[derive(Clone, Debug)]
 pub(super) struct Decoded {
     pub(super) centre: [[f32; LANES]; 3],
     pub(super) power_centre: [[f32; LANES]; 3],

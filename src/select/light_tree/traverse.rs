@@ -10,6 +10,9 @@ use rayon::prelude::*;
 use super::*;
 use crate::cpu::has_avx2_fma;
 
+/// How many nodes from the root on are kept decoded ([`LightBvh::top`]).
+const DECODED_TOP: usize = 1 + LANES;
+
 /// A chosen light and its probability, or `None`.
 type Choice = Option<(usize, f64)>;
 
@@ -24,6 +27,9 @@ pub struct RootImportances(Importances);
 #[derive(Clone, Debug)]
 pub struct LightBvh {
     pub(super) nodes: Vec<WideNode>,
+    /// The first [`DECODED_TOP`] nodes decoded (the root and, as a rule, its children, which
+    /// every choice visits), so a walk does not decode them again.
+    pub(super) top: Vec<Decoded>,
     /// The root lanes' distance and direction terms near the lights ([`NearField`]).
     pub(super) near: Option<NearField>,
     pub(super) lights: usize,
@@ -53,6 +59,7 @@ impl BinaryTree {
         let (nodes, reach) = collapse(&self.nodes, &self.grid, &self.points);
         LightBvh {
             near: NearField::build(&nodes, &reach, &self.points),
+            top: nodes.iter().take(DECODED_TOP).map(Decoded::of).collect(),
             nodes,
             lights: self.order.len(),
             avx2: has_avx2_fma(),
@@ -298,6 +305,7 @@ impl LightBvh {
     /// Heap bytes held by the tree.
     pub fn bytes(&self) -> usize {
         self.nodes.capacity() * std::mem::size_of::<WideNode>()
+            + self.top.capacity() * std::mem::size_of::<Decoded>()
             + self.near.as_ref().map_or(0, NearField::bytes)
     }
 
@@ -343,7 +351,11 @@ impl LightBvh {
         near: Option<NearTerms>,
     ) -> Option<([f64; LANES], f64)> {
         let node = self.nodes.get(index)?;
-        let importances = importances(node, p, n, &lobe, near).map(f64::from);
+        let importances = match self.top.get(index) {
+            Some(decoded) => decoded_importances(decoded, p, n, &lobe, near),
+            None => importances(node, p, n, &lobe, near),
+        }
+        .map(f64::from);
         let total: f64 = importances.iter().sum();
         (total > 0.0).then_some((importances, total))
     }
