@@ -150,6 +150,18 @@ fn max(a: f32, b: f32) -> f32 {
     }
 }
 
+/// √(1 − c²) for c ∈ [−1, 1] (0 outside, and for NaN): the sine of an angle from its cosine or
+/// the reverse, as `bounds::sin_of` but with 1 − c² from one fused multiply-add (rounded once).
+#[inline(always)]
+fn cofunction(c: f32) -> f32 {
+    let square = (-c).mul_add(c, 1.0);
+    if square > 0.0 {
+        square.sqrt()
+    } else {
+        0.0
+    }
+}
+
 /// a · b with fused multiply-adds (correctly rounded on every CPU, so the bits do not depend
 /// on which copy of the walk runs).
 #[inline(always)]
@@ -332,10 +344,10 @@ fn lane<const GLOSSY: bool>(
     let inv_dist = 1.0 / dist_sq.sqrt();
     let sin_b = radius * inv_dist;
     let sin_b = if sin_b < 1.0 { sin_b } else { 1.0 };
-    let cos_b = sin_of(sin_b);
+    let cos_b = cofunction(sin_b);
     let sin_s = SHARP_RADIUS * radius * inv_dist;
     let sin_s = if sin_s < 1.0 { sin_s } else { 1.0 };
-    let cos_s = sin_of(sin_s);
+    let cos_s = cofunction(sin_s);
 
     // θw − θo − θ as θw − (θo + θ): the sums wait only for the distance, so the chain from
     // the cone axis's cosine to the importance is one subtraction of angles long. Both dot
@@ -346,9 +358,9 @@ fn lane<const GLOSSY: bool>(
     let axis = [node.axis[0][k], node.axis[1][k], node.axis[2][k]];
     let cos_w = dot(axis, to_p) * inv_dist;
     let cos_w = if signed_phi < 0.0 { cos_w.abs() } else { cos_w };
-    let sin_w = sin_of(cos_w);
+    let sin_w = cofunction(cos_w);
     let cos_o = node.cos_o[k];
-    let sin_o = sin_of(cos_o);
+    let sin_o = cofunction(cos_o);
     let (cos_ob, sin_ob) = plus(cos_o, sin_o, cos_b, sin_b);
     let (cos_os, sin_os) = plus(cos_o, sin_o, cos_s, sin_s);
     let (cos_p, _) = minus(cos_w, sin_w, cos_ob, sin_ob);
@@ -359,7 +371,7 @@ fn lane<const GLOSSY: bool>(
     let emitted = weighted(cos_p_sharp, cos_p, outside_sharp, outside);
 
     let cos_i = -dot(to_p, n.to_array()) * inv_dist;
-    let sin_i = sin_of(cos_i);
+    let sin_i = cofunction(cos_i);
     let (cos_r, _) = minus(cos_i, sin_i, cos_b, sin_b);
     let receiver_rejects = receiver & (cos_r <= -COS_SLACK);
     let (cos_r_sharp, _) = minus(cos_i, sin_i, cos_s, sin_s);
@@ -394,7 +406,7 @@ fn lane<const GLOSSY: bool>(
     let value = if GLOSSY {
         let r = lobe.r;
         let cos_m = -dot(to_p, r.to_array()) * inv_dist;
-        let sin_m = sin_of(cos_m);
+        let sin_m = cofunction(cos_m);
         let (cos_g, _) = minus(cos_m, sin_m, cos_b, sin_b);
         let t = max(lobe.sharpness.mul_add(1.0 - cos_g, 1.0), 1.0);
         value * (1.0 + lobe.gain / (t * t))
