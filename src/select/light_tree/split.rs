@@ -415,19 +415,20 @@ impl Binner {
         x < cut as f32 || x.is_nan()
     }
 
-    /// Bins the lights along every active axis, in one pass. Alternate lights go to two sets
-    /// of bins, merged at the end, so that a run of lights in one bucket is not a chain of
-    /// updates each waiting for the one before.
-    pub(super) fn bin(&self, prims: &[Prim]) -> [[Side; BUCKETS]; 3] {
+    /// Bins every `step`-th light (from the first) along every active axis, in one pass.
+    /// Alternate lights of those go to two sets of bins, merged at the end, so that a run of
+    /// lights in one bucket is not a chain of updates each waiting for the one before.
+    pub(super) fn bin(&self, prims: &[Prim], step: usize) -> [[Side; BUCKETS]; 3] {
         let mut even = [[Side::EMPTY; BUCKETS]; 3];
         let mut odd = [[Side::EMPTY; BUCKETS]; 3];
-        let mut pairs = prims.chunks_exact(2);
-        for pair in &mut pairs {
-            self.add(&mut even, &pair[0]);
-            self.add(&mut odd, &pair[1]);
+        let mut at = 0;
+        while at + step < prims.len() {
+            self.add(&mut even, &prims[at]);
+            self.add(&mut odd, &prims[at + step]);
+            at += 2 * step;
         }
-        for p in pairs.remainder() {
-            self.add(&mut even, p);
+        if at < prims.len() {
+            self.add(&mut even, &prims[at]);
         }
         for (bin, more) in even.iter_mut().flatten().zip(odd.iter().flatten()) {
             bin.add(more);
@@ -488,18 +489,25 @@ pub(super) fn axis_weights(node: &Side) -> ([f64; 3], f32, f64) {
     )
 }
 
-/// Binned split: 12 buckets along each axis, every boundary tried. A node of n ≥ 2·
-/// [`BINNED_SAMPLE`] lights is binned from every ⌊n / `BINNED_SAMPLE`⌋-th light only (all
-/// are partitioned).
+/// The stride of the sample a node of `n` lights is binned from: 1 below [`SAMPLED_MIN`],
+/// else ⌊n / m⌋ for a sample of m = [`SAMPLED_MIN`] / 2 lights, or m = [`BINNED_SAMPLE`] from
+/// n = 2·[`BINNED_SAMPLE`] on.
+pub(super) fn sample_step(n: usize) -> usize {
+    if n < SAMPLED_MIN {
+        1
+    } else if n < 2 * BINNED_SAMPLE {
+        n / (SAMPLED_MIN / 2)
+    } else {
+        n / BINNED_SAMPLE
+    }
+}
+
+/// Binned split: 12 buckets along each axis, every boundary tried. A node of n ≥
+/// [`SAMPLED_MIN`] lights is binned from every [`sample_step`]-th light only (all are
+/// partitioned).
 pub(super) fn binned_split(prims: &mut [Prim], centroids: Aabb) -> Option<Split> {
     let binner = Binner::new(&centroids);
-    let step = prims.len() / BINNED_SAMPLE;
-    let bins = if step > 1 {
-        let sample: Vec<Prim> = prims.iter().step_by(step).copied().collect();
-        binner.bin(&sample)
-    } else {
-        binner.bin(prims)
-    };
+    let bins = binner.bin(prims, sample_step(prims.len()));
     let row = bins.iter().zip(binner.active).find(|(_, a)| *a)?.0;
     let mut node = Side::EMPTY;
     row.iter().for_each(|bin| node.add(bin));

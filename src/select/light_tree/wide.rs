@@ -100,17 +100,10 @@ impl WideNode {
         }
     }
 
-    /// The node of `lanes` (binary nodes with their ranges; `points` the lights' power points
-    /// in leaf order), interior lanes' nodes numbered from `children` on, and each lane's
-    /// [`Reach`].
-    fn new(
-        binary: &[Node],
-        grid: &Grid,
-        points: &[PowerPoint],
-        lanes: &[Lane],
-        children: u32,
-    ) -> (WideNode, Reach) {
-        let mut reach = [0.0; LANES];
+    /// The node of `lanes` (binary nodes with their ranges), interior lanes' nodes numbered from
+    /// `children` on; the fields that depend on the lanes' [`Moments`] are left to
+    /// [`finish`](Self::finish), which needs the children's.
+    fn new(binary: &[Node], grid: &Grid, lanes: &[Lane], children: u32) -> WideNode {
         let mut node = WideNode::empty();
         let mut bounds = [(binary[0].bounds(grid), Vec3::ZERO, 0.0); LANES];
         let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
@@ -139,22 +132,6 @@ impl WideNode {
                 field[k] = code;
             }
             node.radius[k] = encode_radius(*radius, radius_step);
-            let sphere_centre = centres.decode(*centre).as_dvec3();
-            let (power, spread, (lo, hi)) =
-                power_moments(&points[lane.first..lane.first + lane.count], sphere_centre);
-            let coded_radius = f32::from(node.radius[k]) * radius_step;
-            let offset = encode_offset(power - sphere_centre, coded_radius);
-            // The farthest corner of the box of the lights' centres from the coded power centre.
-            let coded_offset =
-                DVec3::from_array(offset.map(f64::from)) * f64::from(coded_radius / OFFSET_MAX);
-            reach[k] = (lo - coded_offset)
-                .abs()
-                .max((hi - coded_offset).abs())
-                .length() as f32;
-            for (field, code) in node.power_centre.iter_mut().zip(offset) {
-                field[k] = code;
-            }
-            node.spread[k / 2] |= encode_spread(spread, coded_radius) << (4 * (k % 2));
             let (axis, cos_o) = encode_axis(b.w, b.cos_theta_o);
             for (field, code) in node.axis.iter_mut().zip(axis) {
                 field[k] = code;
@@ -169,7 +146,67 @@ impl WideNode {
                 node.interior |= 1 << k;
             }
         }
-        (node, reach)
+        node
+    }
+
+    /// Sets each used lane's power centre and spread from its [`Moments`]: a single light's
+    /// from `points` (the lights' power points in leaf order), an interior lane's from
+    /// `child_moments` of its node (the total of that node's lanes, which are finished
+    /// first). Returns the lanes' [`Reach`] and the node's moments, its lanes' merged in
+    /// lane order.
+    fn finish(
+        &mut self,
+        points: &[PowerPoint],
+        child_moments: impl Fn(u32) -> Moments,
+    ) -> (Reach, Moments) {
+        let mut reach = [0.0; LANES];
+        let mut total: Option<Moments> = None;
+        let used = self
+            .first
+            .iter()
+            .take_while(|&&first| first != EMPTY_LANE)
+            .count();
+        for (k, lane_reach) in reach.iter_mut().enumerate().take(used) {
+            let child = self.child(k);
+            let moments = if child & LIGHT_LANE != 0 {
+                Moments::of(&points[(child & !LIGHT_LANE) as usize])
+            } else {
+                child_moments(child)
+            };
+            *lane_reach = self.set_moments(k, &moments);
+            total = Some(total.map_or(moments, |t| t.merge(&moments)));
+        }
+        (reach, total.expect("a wide node has a lane"))
+    }
+
+    /// Codes lane `k`'s power centre c and spread σ relative to its coded sphere; returns the
+    /// lane's reach: the distance from the coded c to the farthest corner of the box of its
+    /// lights' centres.
+    fn set_moments(&mut self, k: usize, moments: &Moments) -> f32 {
+        let centre = Vec3A::new(
+            f32::from(self.centre[0][k]),
+            f32::from(self.centre[1][k]),
+            f32::from(self.centre[2][k]),
+        );
+        let sphere_centre = (Vec3A::from(self.origin) + centre * Vec3A::from(self.step)).as_dvec3();
+        let coded_radius = f32::from(self.radius[k]) * self.radius_step;
+        let offset = encode_offset(moments.centre - sphere_centre, coded_radius);
+        let coded_offset =
+            DVec3::from_array(offset.map(f64::from)) * f64::from(coded_radius / OFFSET_MAX);
+        // The box relative to the sphere's centre: rounding x − o is monotonic in x, so the
+        // f32 box moved once is the box of the points' f64 offsets, exactly.
+        let (lo, hi) = (
+            moments.lo.as_dvec3() - sphere_centre,
+            moments.hi.as_dvec3() - sphere_centre,
+        );
+        for (field, code) in self.power_centre.iter_mut().zip(offset) {
+            field[k] = code;
+        }
+        self.spread[k / 2] |= encode_spread(moments.spread(), coded_radius) << (4 * (k % 2));
+        (lo - coded_offset)
+            .abs()
+            .max((hi - coded_offset).abs())
+            .length() as f32
     }
 
     /// The lane whose id range holds `light`: the last used lane starting at or before it,
@@ -205,7 +242,10 @@ const PARALLEL_COLLAPSE_MIN: usize = 1 << 14;
 /// and the nodes of a node's interior lanes are consecutive, after it. The top is collapsed
 /// first, down to lanes of fewer than [`PARALLEL_COLLAPSE_MIN`] lights, whose nodes get their
 /// places there; the subtrees below those lanes are counted, given their ranges of the list,
-/// and collapsed into them in parallel. Also returns each node's [`Reach`], in the same order.
+/// and collapsed into them in parallel. Each node's power centres and spreads are set once its
+/// children's are, from their [`Moments`] (its own lights are never summed again): within each
+/// subtree, then over the top in reverse order (a node's children come after it). Also returns
+/// each node's [`Reach`], in the same order.
 pub(super) fn collapse(
     binary: &[Node],
     grid: &Grid,
@@ -238,7 +278,7 @@ pub(super) fn collapse(
                 pending.push(child);
             }
         }
-        (wide[at], reach[at]) = WideNode::new(binary, grid, points, &lanes, children);
+        wide[at] = WideNode::new(binary, grid, &lanes, children);
     }
     // The nodes below each deferred lane's own.
     let counts: Vec<usize> = deferred
@@ -262,15 +302,24 @@ pub(super) fn collapse(
         (rest, rest_reach) = (after, after_reach);
         base += count;
     }
-    let roots: Vec<(usize, (WideNode, Reach))> = blocks
+    let roots: Vec<(usize, (WideNode, Reach, Moments))> = blocks
         .into_par_iter()
         .map(|(lane, at, block, base)| {
             let node = collapse_block(binary, grid, points, lane, block, base);
             (at, node)
         })
         .collect();
-    for (at, node) in roots {
-        (wide[at], reach[at]) = node;
+    let mut moments: Vec<Option<Moments>> = vec![None; top];
+    for (at, (node, node_reach, node_moments)) in roots {
+        (wide[at], reach[at], moments[at]) = (node, node_reach, Some(node_moments));
+    }
+    for at in (0..top).rev() {
+        if moments[at].is_none() {
+            let (node_reach, node_moments) = wide[at].finish(points, |child| {
+                moments[child as usize].expect("a child comes after its node")
+            });
+            (reach[at], moments[at]) = (node_reach, Some(node_moments));
+        }
     }
     (wide, reach)
 }
@@ -282,48 +331,49 @@ pub(super) struct PowerPoint {
     pub(super) phi: f32,
 }
 
-/// Above this many lights a lane's power moments are summed in parallel.
-const PARALLEL_POWER_MIN: usize = 1 << 16;
+/// The power moments of a set of lights' power points: ΣΦ, the power centre c = Σ Φ_i x_i / ΣΦ,
+/// the Φ-weighted squared spread M₂ = Σ Φ_i |x_i − c|², and the points' box. Merged bottom-up
+/// (Chan, Golub & LeVeque's pairwise update: c = c_a + (c_b − c_a)·Φ_b/Φ, M₂ = M₂a + M₂b +
+/// |c_b − c_a|²·Φ_a Φ_b/Φ), so a lane's moments come from its children's, not from a pass over
+/// its lights at every level, and M₂ never cancels as E|x|² − |c|² would.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Moments {
+    phi: f64,
+    centre: DVec3,
+    m2: f64,
+    lo: Vec3A,
+    hi: Vec3A,
+}
 
-/// The power centre c = Σ Φ_i x_i / Σ Φ_i of `points` and their spread about it, the RMS
-/// distance σ = (Σ Φ_i |x_i − c|² / Σ Φ_i)^½, summed in f64 relative to `origin` (a point
-/// near them: the lane's sphere centre) so that σ² = E|x − o|² − |c − o|² keeps its digits far
-/// from the world's origin; and the points' box relative to `origin`. The box is taken over the
-/// f32 points and moved by −`origin` once: rounding x − o is monotonic in x, so that is the box
-/// of the points' f64 offsets, exactly.
-fn power_moments(points: &[PowerPoint], origin: DVec3) -> (DVec3, f64, (DVec3, DVec3)) {
-    type Sums = (DVec3, f64, f64, Vec3A, Vec3A);
-    let add = |(first, second, phi, lo, hi): Sums, p: &PowerPoint| {
-        let w = f64::from(p.phi);
-        let x = p.position.as_dvec3() - origin;
-        let at = Vec3A::from(p.position);
-        (
-            first + x * w,
-            second + x.length_squared() * w,
-            phi + w,
-            lo.min(at),
-            hi.max(at),
-        )
-    };
-    let merge = |a: Sums, b: Sums| (a.0 + b.0, a.1 + b.1, a.2 + b.2, a.3.min(b.3), a.4.max(b.4));
-    let zero = || (DVec3::ZERO, 0.0, 0.0, Vec3A::MAX, Vec3A::MIN);
-    let (first, second, phi, lo, hi) = if points.len() >= PARALLEL_POWER_MIN {
-        // Fixed chunks summed in order: the same sums for any thread count (rayon's own
-        // fold splits where work is stolen, so its order of f64 sums would vary).
-        let chunks: Vec<Sums> = points
-            .par_chunks(PARALLEL_POWER_MIN / 4)
-            .map(|chunk| chunk.iter().fold(zero(), add))
-            .collect();
-        chunks.into_iter().fold(zero(), merge)
-    } else {
-        points.iter().fold(zero(), add)
-    };
-    let mean = first / phi;
-    (
-        origin + mean,
-        (second / phi - mean.length_squared()).max(0.0).sqrt(),
-        (lo.as_dvec3() - origin, hi.as_dvec3() - origin),
-    )
+impl Moments {
+    /// One light's: its point, with M₂ = 0.
+    fn of(p: &PowerPoint) -> Moments {
+        Moments {
+            phi: f64::from(p.phi),
+            centre: p.position.as_dvec3(),
+            m2: 0.0,
+            lo: p.position.into(),
+            hi: p.position.into(),
+        }
+    }
+
+    /// The moments of both sets together.
+    fn merge(&self, other: &Moments) -> Moments {
+        let phi = self.phi + other.phi;
+        let d = other.centre - self.centre;
+        Moments {
+            phi,
+            centre: self.centre + d * (other.phi / phi),
+            m2: self.m2 + other.m2 + d.length_squared() * (self.phi * other.phi / phi),
+            lo: self.lo.min(other.lo),
+            hi: self.hi.max(other.hi),
+        }
+    }
+
+    /// The spread σ = (M₂ / ΣΦ)^½, the RMS distance of the points from c.
+    fn spread(&self) -> f64 {
+        (self.m2 / self.phi).max(0.0).sqrt()
+    }
 }
 
 /// The interior lanes among `lanes`, in lane order.
@@ -331,9 +381,9 @@ fn interior<'a>(binary: &'a [Node], lanes: &'a [Lane]) -> impl Iterator<Item = &
     lanes.iter().filter(|lane| !binary[lane.index].is_leaf())
 }
 
-/// Collapses the subtree of interior lane `start`: returns its node and [`Reach`] and writes
-/// the nodes below it and theirs into `block` (exactly their number, from [`count_wide`]),
-/// whose first node has index `base` in the whole list.
+/// Collapses the subtree of interior lane `start`: returns its node, [`Reach`] and
+/// [`Moments`] and writes the nodes below it and their reach into `block` (exactly their
+/// number, from [`count_wide`]), whose first node has index `base` in the whole list.
 fn collapse_block(
     binary: &[Node],
     grid: &Grid,
@@ -341,9 +391,9 @@ fn collapse_block(
     start: Lane,
     (block, block_reach): (&mut [WideNode], &mut [Reach]),
     base: u32,
-) -> (WideNode, Reach) {
+) -> (WideNode, Reach, Moments) {
     let mut used = 0;
-    let mut root = (WideNode::empty(), [0.0; LANES]);
+    let mut root = WideNode::empty();
     let mut pending = vec![(start, None)];
     // The pending lanes are taken depth first, so the wide nodes of a small subtree come one
     // after the other and share its table.
@@ -355,14 +405,24 @@ fn collapse_block(
             pending.push((lane, Some(used)));
             used += 1;
         }
-        let node = WideNode::new(binary, grid, points, &lanes, children);
+        let node = WideNode::new(binary, grid, &lanes, children);
         match at {
-            Some(at) => (block[at], block_reach[at]) = node,
+            Some(at) => block[at] = node,
             None => root = node,
         }
     }
     debug_assert_eq!(used, block.len());
-    root
+    // Children come after their node: in reverse order each node's children are finished.
+    let mut moments = vec![None; block.len()];
+    let child_moments = |moments: &[Option<Moments>], child: u32| -> Moments {
+        moments[(child - base) as usize].expect("a child comes after its node")
+    };
+    for at in (0..block.len()).rev() {
+        let (node_reach, node_moments) = block[at].finish(points, |c| child_moments(&moments, c));
+        (block_reach[at], moments[at]) = (node_reach, Some(node_moments));
+    }
+    let (root_reach, root_moments) = root.finish(points, |c| child_moments(&moments, c));
+    (root, root_reach, root_moments)
 }
 
 /// How many wide nodes the subtree of lane `start` makes: one for its root and one per
