@@ -160,6 +160,7 @@ impl LightBvh {
     /// probability (the product of the chosen lanes' I_k / Σ I), or `None` when the
     /// tree is empty, (p, n) is not finite, a node is reached whose lanes all
     /// have importance 0, or the probability underflows to 0.
+    #[inline]
     pub fn sample_with(&self, p: Vec3, n: Vec3, lobe: Lobe, u: f64) -> Option<(usize, f64)> {
         self.sample_from(p, n, lobe, u, None)
     }
