@@ -23,6 +23,13 @@ pub(super) struct Grid {
     pub(super) inv_step: Vec3A,
 }
 
+/// `origin + q · step`, coordinate by coordinate: how a grid code decodes ([`Grid::decode`],
+/// and a wide node's lane centres on the grid its `origin` and `step` keep).
+pub(super) fn decode_on_grid(origin: Vec3A, step: Vec3A, q: [u16; 3]) -> Vec3 {
+    let q = Vec3A::new(f32::from(q[0]), f32::from(q[1]), f32::from(q[2]));
+    (origin + q * step).into()
+}
+
 impl Grid {
     pub(super) fn new(lo: Vec3, hi: Vec3) -> Grid {
         let step = |k: usize| {
@@ -42,8 +49,7 @@ impl Grid {
     }
 
     pub(super) fn decode(&self, q: [u16; 3]) -> Vec3 {
-        let q = Vec3A::new(f32::from(q[0]), f32::from(q[1]), f32::from(q[2]));
-        (self.origin + q * self.step).into()
+        decode_on_grid(self.origin, self.step, q)
     }
 
     /// Codes whose decoding is ≤ `x` (`up` false) or ≥ `x` (`up` true): a

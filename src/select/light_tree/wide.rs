@@ -183,12 +183,8 @@ impl WideNode {
     /// lane's reach: the distance from the coded c to the farthest corner of the box of its
     /// lights' centres.
     fn set_moments(&mut self, k: usize, moments: &Moments) -> f32 {
-        let centre = Vec3A::new(
-            f32::from(self.centre[0][k]),
-            f32::from(self.centre[1][k]),
-            f32::from(self.centre[2][k]),
-        );
-        let sphere_centre = (Vec3A::from(self.origin) + centre * Vec3A::from(self.step)).as_dvec3();
+        let code = [self.centre[0][k], self.centre[1][k], self.centre[2][k]];
+        let sphere_centre = decode_on_grid(self.origin.into(), self.step.into(), code).as_dvec3();
         let coded_radius = f32::from(self.radius[k]) * self.radius_step;
         let offset = encode_offset(moments.centre - sphere_centre, coded_radius);
         let coded_offset =
