@@ -159,18 +159,29 @@ impl PixelSampler {
             seed: self.seeds[dim as usize],
             local: s * per_sample + slot,
             count: sm.spp * per_sample,
-            absolute: (sm.first_sample + s) * per_sample + slot,
+            absolute: self.absolute(per_sample, s, slot),
         }
     }
 
-    /// One coordinate as a fraction of 2^32. The independent sampler's one hash is inlined
-    /// into every caller; the sequences stay out of line, so the hot path carries no call.
+    /// The absolute index of point `slot` of camera sample s in a group with `per_sample`
+    /// points per camera sample (`Point::absolute`), for the independent sampler, which needs
+    /// nothing else of the point.
     #[inline(always)]
-    fn get_1d(&self, p: &Point) -> u32 {
+    fn absolute(&self, per_sample: u64, s: u64, slot: u64) -> u64 {
+        (self.sampler.first_sample + s) * per_sample + slot
+    }
+
+    /// One coordinate of point `slot` of camera sample s in dimension `dim` (see `point`), as a
+    /// fraction of 2^32. The independent sampler's one hash is inlined into every caller, from
+    /// the index and seed alone; the sequences stay out of line with the whole `Point`, built
+    /// only on their branch, so the hot path carries no call and no stores.
+    #[inline(always)]
+    fn get_1d(&self, dim: u64, per_sample: u64, s: u64, slot: u64) -> u32 {
         if self.sampler.kind == SamplerKind::Independent {
-            return independent::sample_1d(p.absolute, p.seed);
+            let index = self.absolute(per_sample, s, slot);
+            return independent::sample_1d(index, self.seeds[dim as usize]);
         }
-        self.get_1d_sequence(p)
+        self.get_1d_sequence(&self.point(dim, per_sample, s, slot))
     }
 
     #[inline(never)]
@@ -190,11 +201,12 @@ impl PixelSampler {
     /// Two coordinates (dims `p.dim`, `p.dim + 1`) as fractions of 2^32 (inlined for the
     /// independent sampler, as `get_1d`).
     #[inline(always)]
-    fn get_2d(&self, p: &Point) -> [u32; 2] {
+    fn get_2d(&self, dim: u64, per_sample: u64, s: u64, slot: u64) -> [u32; 2] {
         if self.sampler.kind == SamplerKind::Independent {
-            return independent::sample_2d(p.absolute, p.seed);
+            let index = self.absolute(per_sample, s, slot);
+            return independent::sample_2d(index, self.seeds[dim as usize]);
         }
-        self.get_2d_sequence(p)
+        self.get_2d_sequence(&self.point(dim, per_sample, s, slot))
     }
 
     #[inline(never)]
@@ -235,8 +247,7 @@ impl CameraSample<'_> {
     /// The point inside the pixel, in [0,1)².
     #[inline]
     pub fn pixel_jitter(&self) -> [f32; 2] {
-        let p = self.pixel.point(PIXEL, 1, self.s, 0);
-        self.pixel.get_2d(&p).map(to_f32)
+        self.pixel.get_2d(PIXEL, 1, self.s, 0).map(to_f32)
     }
 
     /// The number that chooses light slot k's light, in [0, 1) with 53 bits.
@@ -245,8 +256,9 @@ impl CameraSample<'_> {
         let sm = &self.pixel.sampler;
         if sm.kind == SamplerKind::Independent {
             // All 53 bits from one hash.
-            let p = self.pixel.point(LIGHT_CHOICE, sm.k, self.s, k as u64);
-            return (hash(p.seed, p.absolute) >> 11) as f64 * TO_UNIT_53;
+            let index = self.pixel.absolute(sm.k, self.s, k as u64);
+            let seed = self.pixel.seeds[LIGHT_CHOICE as usize];
+            return (hash(seed, index) >> 11) as f64 * TO_UNIT_53;
         }
         self.sequence_light_choice(k)
     }
@@ -261,7 +273,7 @@ impl CameraSample<'_> {
             (p, third)
         } else {
             let p = self.pixel.point(LIGHT_CHOICE, sm.k, self.s, k as u64);
-            let x = self.pixel.get_1d(&p);
+            let x = self.pixel.get_1d_sequence(&p);
             (p, x)
         };
         let high = high as u64;
@@ -274,8 +286,10 @@ impl CameraSample<'_> {
     pub fn light_point(&self, k: u32, n: u32) -> [f32; 2] {
         let sm = &self.pixel.sampler;
         let slot = k as u64 * sm.n + n as u64;
-        let p = self.pixel.point(LIGHT_POINT, sm.k * sm.n, self.s, slot);
-        self.pixel.get_2d(&p).map(to_f32)
+        let per_sample = sm.k * sm.n;
+        self.pixel
+            .get_2d(LIGHT_POINT, per_sample, self.s, slot)
+            .map(to_f32)
     }
 
     /// The number that chooses BSDF slot j's lobe.
@@ -288,8 +302,7 @@ impl CameraSample<'_> {
                 .point(BSDF_DIRECTION, sm.k * sm.n, self.s, j as u64);
             sobol::third(p.absolute, p.seed)
         } else {
-            let p = self.pixel.point(BSDF_LOBE, sm.k * sm.n, self.s, j as u64);
-            self.pixel.get_1d(&p)
+            self.pixel.get_1d(BSDF_LOBE, sm.k * sm.n, self.s, j as u64)
         };
         to_f32(x)
     }
@@ -298,10 +311,9 @@ impl CameraSample<'_> {
     #[inline]
     pub fn bsdf_direction(&self, j: u32) -> [f32; 2] {
         let sm = &self.pixel.sampler;
-        let p = self
-            .pixel
-            .point(BSDF_DIRECTION, sm.k * sm.n, self.s, j as u64);
-        self.pixel.get_2d(&p).map(to_f32)
+        self.pixel
+            .get_2d(BSDF_DIRECTION, sm.k * sm.n, self.s, j as u64)
+            .map(to_f32)
     }
 }
 
