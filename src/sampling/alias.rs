@@ -121,9 +121,11 @@ impl AliasTable {
     pub fn start(&self, u: f64) -> Start {
         let n = self.bins.len();
         let scaled = u.clamp(0.0, 1.0) * n as f64;
-        // `as` saturates (NaN → 0); the min handles u·n rounding up to n.
+        // `as` saturates (NaN → 0); the min handles u·n rounding up to n. Through i64, whose
+        // conversion is one instruction, where usize's needs a second for values ≥ 2^63: u·n
+        // is at most n ≤ 2^32, so both give the same integer.
         Start {
-            bin: (scaled as usize).min(n - 1),
+            bin: ((scaled as i64) as usize).min(n - 1),
             scaled,
         }
     }
