@@ -58,6 +58,8 @@ pub(super) struct NearField {
     pub(super) lo: Vec3,
     pub(super) cell: Vec3,
     pub(super) dims: [usize; 3],
+    /// dims − 1 per axis, in f32: the largest grid coordinate.
+    last: Vec3,
     /// Point (i, j, k) at i + dims[0]·(j + dims[1]·k): the eight lanes' T as bfloat16 codes.
     plain: Vec<[u16; LANES]>,
     /// The same point's D / T in units of 1/15, four bits a lane ([`share_shift`]; `[2a]` for
@@ -156,6 +158,7 @@ impl NearField {
         Some(NearField {
             lo,
             cell,
+            last: Vec3::from_array(dims.map(|d| (d - 1) as f32)),
             dims,
             plain,
             shares,
@@ -167,17 +170,23 @@ impl NearField {
     #[inline(always)]
     pub(super) fn at(&self, p: Vec3, n: Vec3) -> Option<NearTerms> {
         let t = (p - self.lo) / self.cell;
-        let last = Vec3::from_array(self.dims.map(|d| (d - 1) as f32));
-        if !(t.min_element() >= 0.0 && t.cmple(last).all()) {
+        if !(t.min_element() >= 0.0 && t.cmple(self.last).all()) {
             return None;
         }
-        let base = t.floor().min(last - 1.0);
+        let base = t.floor().min(self.last - 1.0);
         let f = t - base;
-        let [i, j, k] = base.to_array().map(|b| b as usize);
-        let [nx, ny, _] = self.dims;
-        let first = i + nx * (j + ny * k);
-        // Corner c = (c & 1, c >> 1 & 1, c >> 2) of the cell: its point and trilinear weight.
-        let (row, slab) = (nx, nx * ny);
+        // 0 ≤ base ≤ dims − 2 (checked above): each conversion is exact.
+        let (i, j, k) = (
+            base.x as u32 as usize,
+            base.y as u32 as usize,
+            base.z as u32 as usize,
+        );
+        let (row, slab) = (self.dims[0], self.dims[0] * self.dims[1]);
+        let first = i + row * j + slab * k;
+        // The cell's eight points, checked once: corner c = (c & 1, c >> 1 & 1, c >> 2) lies at
+        // `offsets[c]` in it.
+        let points = first..first + slab + row + 2;
+        let (plain_sums, shares) = (self.plain.get(points.clone())?, self.shares.get(points)?);
         let offsets = [
             0,
             1,
@@ -189,42 +198,50 @@ impl NearField {
             slab + row + 1,
         ];
         let (wx, wy, wz) = ([1.0 - f.x, f.x], [1.0 - f.y, f.y], [1.0 - f.z, f.z]);
-        let weights: [f32; 8] = std::array::from_fn(|c| wx[c & 1] * wy[(c >> 1) & 1] * wz[c >> 2]);
         // The direction sums facing n along each axis, and the weights n_a² of their terms.
-        let facing = [n.x, n.y, n.z].map(|c| usize::from(c < 0.0));
-        let facing = [facing[0], 2 + facing[1], 4 + facing[2]];
+        let facing = [
+            usize::from(n.x < 0.0),
+            2 + usize::from(n.y < 0.0),
+            4 + usize::from(n.z < 0.0),
+        ];
         let along = [n.x * n.x, n.y * n.y, n.z * n.z];
+        // Plain loops rather than array constructors and `map`: a closure the compiler leaves out
+        // of line loses the caller's FMA and calls the library's fused multiply-add.
         let mut plain = [0.0f32; LANES];
-        for (offset, weight) in offsets.into_iter().zip(weights) {
-            let sums = self.plain(first + offset);
+        for (c, offset) in offsets.into_iter().enumerate() {
+            let weight = wx[c & 1] * wy[(c >> 1) & 1] * wz[c >> 2];
+            let codes = &plain_sums[offset];
             for l in 0..LANES {
-                plain[l] = weight.mul_add(sums[l], plain[l]);
+                plain[l] = weight.mul_add(decode_sum(codes[l]), plain[l]);
             }
         }
         // The shares of the grid point nearest p.
         let corner =
             usize::from(f.x >= 0.5) | usize::from(f.y >= 0.5) << 1 | usize::from(f.z >= 0.5) << 2;
-        let nearest = first + offsets[corner];
-        let [x, y, z] = facing.map(|a| self.share(nearest, a));
-        let directed: [f32; LANES] = std::array::from_fn(|l| {
-            plain[l] * along[2].mul_add(z[l], along[1].mul_add(y[l], along[0] * x[l]))
-        });
+        let nearest = &shares[offsets[corner]];
+        let (x, y, z) = (
+            share_codes(nearest[facing[0]]),
+            share_codes(nearest[facing[1]]),
+            share_codes(nearest[facing[2]]),
+        );
+        let mut directed = [0.0f32; LANES];
+        for l in 0..LANES {
+            directed[l] =
+                plain[l] * along[2].mul_add(z[l], along[1].mul_add(y[l], along[0] * x[l]));
+        }
         Some(NearTerms { plain, directed })
     }
 
     /// The eight lanes' T at grid point `point` (as in [`NearField::at`]'s indexing).
-    #[inline(always)]
+    #[cfg(test)]
     pub(super) fn plain(&self, point: usize) -> [f32; LANES] {
         self.plain[point].map(decode_sum)
     }
 
     /// The eight lanes' D / T at grid point `point` for direction `d` (2a for +a, 2a + 1 for −a).
-    #[inline(always)]
+    #[cfg(test)]
     pub(super) fn share(&self, point: usize, d: usize) -> [f32; LANES] {
-        let word = self.shares[point][d];
-        let (low, high) = (word & 0x0F0F_0F0F, (word >> 4) & 0x0F0F_0F0F);
-        let codes = (u64::from(low) | u64::from(high) << 32).to_le_bytes();
-        codes.map(|code| f32::from(code) * (1.0 / SHARE_MAX))
+        share_codes(self.shares[point][d])
     }
 
     /// Heap bytes held.
@@ -335,6 +352,18 @@ fn encode_sum(sum: f32) -> u16 {
 #[inline(always)]
 fn decode_sum(code: u16) -> f32 {
     f32::from_bits(u32::from(code) << 16)
+}
+
+/// The eight lanes' shares in a word of four-bit codes ([`share_shift`]), in units of 1/15.
+#[inline(always)]
+fn share_codes(word: u32) -> [f32; LANES] {
+    let (low, high) = (word & 0x0F0F_0F0F, (word >> 4) & 0x0F0F_0F0F);
+    let codes = (u64::from(low) | u64::from(high) << 32).to_le_bytes();
+    let mut shares = [0.0; LANES];
+    for (share, code) in shares.iter_mut().zip(codes) {
+        *share = f32::from(code) * (1.0 / SHARE_MAX);
+    }
+    shares
 }
 
 /// Where lane k's four-bit share code sits in its word: lanes 0–3 in the low nibbles of bytes
