@@ -275,27 +275,13 @@ impl CostInputs {
                 (lanes(&self.a_min) / a_sq.sqrt()).clamp(Vec4::NEG_ONE, Vec4::ONE),
                 Vec4::NEG_ONE,
             );
-            // cos(θ + θo), θ the axes' angle from a; lane by lane, which the
-            // compiler still vectorises.
-            let widen = |n: f32, c: f32| cos_sum(n, c, sin_of(c));
-            let cos_half = Vec4::new(
-                widen(nearest.x, cos_o.x),
-                widen(nearest.y, cos_o.y),
-                widen(nearest.z, cos_o.z),
-                widen(nearest.w, cos_o.w),
-            );
+            // cos(θ + θo), θ the axes' angle from a.
+            let cos_half = cos_sum(nearest, cos_o, sin_of(cos_o));
             let cost = lanes(&self.phi_area) * orientation_measure(cos_half, lanes(&self.cos_e));
             cost.write_to_slice(&mut costs[i..i + 4]);
         }
         costs
     }
-}
-
-/// [`sin_of`] in four lanes.
-#[inline(always)]
-fn sin_of4(cos: Vec4) -> Vec4 {
-    let sin_sq = (Vec4::ONE - cos) * (Vec4::ONE + cos);
-    Vec4::select(sin_sq.cmpgt(Vec4::ZERO), sin_sq.sqrt(), Vec4::ZERO)
 }
 
 /// M_Ω(θo, θe) in four lanes: the integral of the clamped emission bound over
@@ -305,7 +291,7 @@ fn sin_of4(cos: Vec4) -> Vec4 {
 #[inline(always)]
 pub(super) fn orientation_measure(co: Vec4, ce: Vec4) -> Vec4 {
     use std::f32::consts::{FRAC_PI_2, PI};
-    let (so, se) = (sin_of4(co), sin_of4(ce));
+    let (so, se) = (sin_of(co), sin_of(ce));
     let theta_o = approx_acos(co);
     let theta_e = Vec4::select(
         ce.cmpeq(Vec4::ZERO),
