@@ -411,7 +411,7 @@ impl Binner {
         x < cut as f32 || x.is_nan()
     }
 
-    /// Bins every `step`-th light (from the first) along every active axis, in one pass.
+    /// Bins every `step`-th light (from the first) along every axis, in one pass.
     /// Alternate lights of those go to two sets of bins, merged at the end, so that a run of
     /// lights in one bucket is not a chain of updates each waiting for the one before.
     pub(super) fn bin(&self, prims: &[Prim], step: usize) -> [[Side; BUCKETS]; 3] {
@@ -432,14 +432,13 @@ impl Binner {
         even
     }
 
-    /// Adds one light to its bucket along every active axis.
+    /// Adds one light to its bucket along every axis, active or not: an inactive axis' row is
+    /// never read, and pushing into it costs less than testing for it.
     #[inline(always)]
     fn add(&self, bins: &mut [[Side; BUCKETS]; 3], p: &Prim) {
         let buckets = self.buckets(p.centroid());
-        for (axis, row) in bins.iter_mut().enumerate() {
-            if self.active[axis] {
-                row[buckets[axis]].push(p);
-            }
+        for (row, bucket) in bins.iter_mut().zip(buckets) {
+            row[bucket].push(p);
         }
     }
 }
