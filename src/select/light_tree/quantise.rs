@@ -68,8 +68,9 @@ impl Grid {
                 (at.cmpgt(x) & q.cmpgt(Vec3A::ZERO), q - 1.0)
             };
             if !wrong.any() {
-                let q = q.as_uvec3();
-                return [q.x, q.y, q.z].map(|c| c as u16);
+                // SAFETY: q is a whole number in [0, 65535] (the guess is clamped there, a NaN
+                // to 0 by `_mm_max_ps`, and a step never leaves it): it fits a u32.
+                return [q.x, q.y, q.z].map(|c| unsafe { c.to_int_unchecked::<u32>() } as u16);
             }
             q = Vec3A::select(wrong, next, q);
         }

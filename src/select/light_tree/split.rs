@@ -275,27 +275,13 @@ impl CostInputs {
                 (lanes(&self.a_min) / a_sq.sqrt()).clamp(Vec4::NEG_ONE, Vec4::ONE),
                 Vec4::NEG_ONE,
             );
-            // cos(θ + θo), θ the axes' angle from a; lane by lane, which the
-            // compiler still vectorises.
-            let widen = |n: f32, c: f32| cos_sum(n, c, sin_of(c));
-            let cos_half = Vec4::new(
-                widen(nearest.x, cos_o.x),
-                widen(nearest.y, cos_o.y),
-                widen(nearest.z, cos_o.z),
-                widen(nearest.w, cos_o.w),
-            );
+            // cos(θ + θo), θ the axes' angle from a.
+            let cos_half = cos_sum(nearest, cos_o, sin_of(cos_o));
             let cost = lanes(&self.phi_area) * orientation_measure(cos_half, lanes(&self.cos_e));
             cost.write_to_slice(&mut costs[i..i + 4]);
         }
         costs
     }
-}
-
-/// [`sin_of`] in four lanes.
-#[inline(always)]
-fn sin_of4(cos: Vec4) -> Vec4 {
-    let sin_sq = (Vec4::ONE - cos) * (Vec4::ONE + cos);
-    Vec4::select(sin_sq.cmpgt(Vec4::ZERO), sin_sq.sqrt(), Vec4::ZERO)
 }
 
 /// M_Ω(θo, θe) in four lanes: the integral of the clamped emission bound over
@@ -305,7 +291,7 @@ fn sin_of4(cos: Vec4) -> Vec4 {
 #[inline(always)]
 pub(super) fn orientation_measure(co: Vec4, ce: Vec4) -> Vec4 {
     use std::f32::consts::{FRAC_PI_2, PI};
-    let (so, se) = (sin_of4(co), sin_of4(ce));
+    let (so, se) = (sin_of(co), sin_of(ce));
     let theta_o = approx_acos(co);
     let theta_e = Vec4::select(
         ce.cmpeq(Vec4::ZERO),
@@ -400,22 +386,32 @@ impl Binner {
         }
     }
 
-    /// Bucket of a centroid along each axis.
+    /// Bucket of a centroid along each axis: the offset x ≥ 0 truncated, at most
+    /// `BUCKETS` − 1 (a NaN x, from an overflowing centroid, in bucket 0). x is clamped to
+    /// [0, `BUCKETS` − 1] in SIMD lanes before it is truncated (`_mm_max_ps` gives its second
+    /// operand, 0, for a NaN), which gives the same bucket as truncating and then clamping but
+    /// needs no saturating conversions.
+    #[inline(always)]
     pub(super) fn buckets(&self, centroid: Vec3A) -> [usize; 3] {
-        let b = ((centroid - self.lo) * self.scale).as_uvec3();
-        [b.x, b.y, b.z].map(|b| (b as usize).min(BUCKETS - 1))
+        let x = ((centroid - self.lo) * self.scale)
+            .max(Vec3A::ZERO)
+            .min(Vec3A::splat((BUCKETS - 1) as f32));
+        // SAFETY: every lane is in [0, BUCKETS − 1], not NaN: it fits a u32.
+        [x.x, x.y, x.z].map(|x| unsafe { x.to_int_unchecked::<u32>() } as usize)
     }
 
     /// Whether a centroid's bucket along `axis` is below `cut` (1 ..= `BUCKETS` − 1), from the
     /// offset x that [`buckets`](Self::buckets) truncates, by the same arithmetic. x ≥ 0 (the
     /// box starts at the smallest centroid), so ⌊x⌋ < cut exactly when x < cut, and no
     /// conversion is needed; a NaN x (an overflowing centroid) truncates to bucket 0.
-    pub(super) fn below(&self, centroid: Vec3A, axis: usize, cut: usize) -> bool {
-        let x = ((centroid - self.lo) * self.scale)[axis];
+    /// Along axis `A`, so that the axis is not chosen again for every light.
+    #[inline(always)]
+    pub(super) fn below<const A: usize>(&self, centroid: Vec3A, cut: usize) -> bool {
+        let x = (centroid[A] - self.lo[A]) * self.scale[A];
         x < cut as f32 || x.is_nan()
     }
 
-    /// Bins every `step`-th light (from the first) along every active axis, in one pass.
+    /// Bins every `step`-th light (from the first) along every axis, in one pass.
     /// Alternate lights of those go to two sets of bins, merged at the end, so that a run of
     /// lights in one bucket is not a chain of updates each waiting for the one before.
     pub(super) fn bin(&self, prims: &[Prim], step: usize) -> [[Side; BUCKETS]; 3] {
@@ -436,14 +432,13 @@ impl Binner {
         even
     }
 
-    /// Adds one light to its bucket along every active axis.
+    /// Adds one light to its bucket along every axis, active or not: an inactive axis' row is
+    /// never read, and pushing into it costs less than testing for it.
     #[inline(always)]
     fn add(&self, bins: &mut [[Side; BUCKETS]; 3], p: &Prim) {
         let buckets = self.buckets(p.centroid());
-        for (axis, row) in bins.iter_mut().enumerate() {
-            if self.active[axis] {
-                row[buckets[axis]].push(p);
-            }
+        for (row, bucket) in bins.iter_mut().zip(buckets) {
+            row[bucket].push(p);
         }
     }
 }
@@ -526,7 +521,11 @@ pub(super) fn binned_split(prims: &mut [Prim], centroids: Aabb) -> Option<Split>
         }
     }
     let (_, axis, cut) = best?;
-    let (mid, left, right) = partition(prims, |c| binner.below(c, axis, cut));
+    let (mid, left, right) = match axis {
+        0 => partition(prims, |c| binner.below::<0>(c, cut)),
+        1 => partition(prims, |c| binner.below::<1>(c, cut)),
+        _ => partition(prims, |c| binner.below::<2>(c, cut)),
+    };
     let split = Split { mid, left, right };
     (0 < mid && mid < prims.len()).then_some(split)
 }
@@ -575,7 +574,9 @@ pub(super) fn small_split(prims: &mut [Prim], centroids: Aabb) -> Option<Split> 
 /// Positions 0..keys.len() (at most [`SMALL_NODE`]) sorted by `keys[·][axis]`,
 /// ties kept in order; unused entries are 0.
 pub(super) fn sorted_along(keys: &[Vec3A], axis: usize) -> [u8; SMALL_NODE] {
-    let key = |i: u8| keys[usize::from(i)][axis];
+    let along: [f32; SMALL_NODE] =
+        std::array::from_fn(|k| keys.get(k).map_or(0.0, |key| key[axis]));
+    let key = |i: u8| along[usize::from(i)];
     let mut order = [0u8; SMALL_NODE];
     for i in 1..keys.len().min(SMALL_NODE) as u8 {
         let mut j = usize::from(i);
