@@ -216,9 +216,10 @@ impl NearField {
             }
         }
         // The shares of the grid point nearest p.
-        let corner =
-            usize::from(f.x >= 0.5) | usize::from(f.y >= 0.5) << 1 | usize::from(f.z >= 0.5) << 2;
-        let nearest = &shares[offsets[corner]];
+        let nearest = usize::from(f.x >= 0.5)
+            + row * usize::from(f.y >= 0.5)
+            + slab * usize::from(f.z >= 0.5);
+        let nearest = &shares[nearest];
         let (x, y, z) = (
             share_codes(nearest[facing[0]]),
             share_codes(nearest[facing[1]]),
@@ -357,11 +358,10 @@ fn decode_sum(code: u16) -> f32 {
 /// The eight lanes' shares in a word of four-bit codes ([`share_shift`]), in units of 1/15.
 #[inline(always)]
 fn share_codes(word: u32) -> [f32; LANES] {
-    let (low, high) = (word & 0x0F0F_0F0F, (word >> 4) & 0x0F0F_0F0F);
-    let codes = (u64::from(low) | u64::from(high) << 32).to_le_bytes();
+    // One shift per lane by a constant: a single SIMD shift where the caller has AVX2.
     let mut shares = [0.0; LANES];
-    for (share, code) in shares.iter_mut().zip(codes) {
-        *share = f32::from(code) * (1.0 / SHARE_MAX);
+    for (k, share) in shares.iter_mut().enumerate() {
+        *share = ((word >> share_shift(k)) & 0xF) as f32 * (1.0 / SHARE_MAX);
     }
     shares
 }
@@ -369,6 +369,7 @@ fn share_codes(word: u32) -> [f32; LANES] {
 /// Where lane k's four-bit share code sits in its word: lanes 0–3 in the low nibbles of bytes
 /// 0–3, lanes 4–7 in their high nibbles, so that masking the word and the word shifted by 4
 /// gives the eight codes as bytes.
-fn share_shift(k: usize) -> usize {
+#[inline(always)]
+const fn share_shift(k: usize) -> usize {
     8 * (k % 4) + 4 * (k / 4)
 }

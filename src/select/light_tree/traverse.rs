@@ -352,9 +352,12 @@ impl LightBvh {
         near: Option<NearTerms>,
     ) -> Option<([f64; LANES], f64)> {
         let node = self.nodes.get(index)?;
-        let importances = match self.top.get(index) {
-            Some(decoded) => decoded_importances(decoded, p, n, &lobe, near),
-            None => importances(node, p, n, &lobe, near),
+        // The table's presence is matched here, so that each arm is compiled for it: with the
+        // table, the lanes' distance terms are never computed.
+        let importances = match (self.top.get(index), near) {
+            (Some(decoded), Some(near)) => decoded_importances(decoded, p, n, &lobe, Some(near)),
+            (Some(decoded), None) => decoded_importances(decoded, p, n, &lobe, None),
+            (None, near) => importances(node, p, n, &lobe, near),
         }
         .map(f64::from);
         let total: f64 = importances.iter().sum();
