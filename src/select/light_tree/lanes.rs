@@ -226,13 +226,27 @@ pub(super) fn importances(
     lobe: &Lobe,
     near: Option<NearTerms>,
 ) -> [f32; LANES] {
-    decoded_importances(&Decoded::of(node), p, n, lobe, near)
+    // Each lane decoded where its importance is computed: the decoded bounds never go through
+    // memory.
+    lane_importances(|k| LaneBounds::decode(node, k), p, n, lobe, near)
 }
 
 /// [`importances`] of a node already decoded (the same bits).
 #[inline(always)]
 pub(super) fn decoded_importances(
     lanes: &Decoded,
+    p: Vec3,
+    n: Vec3,
+    lobe: &Lobe,
+    near: Option<NearTerms>,
+) -> [f32; LANES] {
+    lane_importances(|k| lanes.lane(k), p, n, lobe, near)
+}
+
+/// The eight lanes' importances from their bounds `bounds(k)`.
+#[inline(always)]
+fn lane_importances(
+    bounds: impl Fn(usize) -> LaneBounds,
     p: Vec3,
     n: Vec3,
     lobe: &Lobe,
@@ -251,12 +265,12 @@ pub(super) fn decoded_importances(
     if lobe.gain > 0.0 {
         for (k, out) in out.iter_mut().enumerate() {
             let near = (plain[k], directed[k]);
-            *out = lane::<true>(lanes, k, p, n, lobe, receiver, use_near, near);
+            *out = lane::<true>(&bounds(k), p, n, lobe, receiver, use_near, near);
         }
     } else {
         for (k, out) in out.iter_mut().enumerate() {
             let near = (plain[k], directed[k]);
-            *out = lane::<false>(lanes, k, p, n, lobe, receiver, use_near, near);
+            *out = lane::<false>(&bounds(k), p, n, lobe, receiver, use_near, near);
         }
     }
     out
@@ -288,44 +302,96 @@ impl Decoded {
             axis: [[0.0; LANES]; 3],
             cos_o: [0.0; LANES],
             cos_e: [0.0; LANES],
-            signed_phi: node.phi.map(decode_phi),
+            signed_phi: [0.0; LANES],
             spread_sq: [0.0; LANES],
         };
-        for a in 0..3 {
-            for k in 0..LANES {
-                d.centre[a][k] = node.origin[a] + f32::from(node.centre[a][k]) * node.step[a];
-                d.axis[a][k] = f32::from(node.axis[a][k]) * AXIS_STEP;
+        for k in 0..LANES {
+            let b = LaneBounds::decode(node, k);
+            for a in 0..3 {
+                d.centre[a][k] = b.centre[a];
+                d.power_centre[a][k] = b.power_centre[a];
+                d.axis[a][k] = b.axis[a];
             }
-        }
-        for k in 0..LANES {
-            d.radius[k] = f32::from(node.radius[k]) * node.radius_step;
-        }
-        for a in 0..3 {
-            for k in 0..LANES {
-                d.power_centre[a][k] = d.centre[a][k]
-                    + f32::from(node.power_centre[a][k]) * (d.radius[k] * (1.0 / OFFSET_MAX));
-            }
-        }
-        // Lane k's nibble is bits 4k .. 4k + 3 of the four bytes read as one little-endian word.
-        let spread = u32::from_le_bytes(node.spread);
-        for k in 0..LANES {
-            let code = (spread >> (4 * k)) & 0xF;
-            let spread = code as f32 * (d.radius[k] * (1.0 / SPREAD_MAX));
-            d.spread_sq[k] = spread * spread;
-        }
-        for k in 0..LANES {
-            d.cos_o[k] = decode_cos(u32::from(node.cos_o[k]));
-            d.cos_e[k] = decode_cos(u32::from(node.cos_e[k]));
+            d.radius[k] = b.radius;
+            d.cos_o[k] = b.cos_o;
+            d.cos_e[k] = b.cos_e;
+            d.signed_phi[k] = b.signed_phi;
+            d.spread_sq[k] = b.spread_sq;
         }
         d
+    }
+
+    /// Lane k's bounds.
+    #[inline(always)]
+    fn lane(&self, k: usize) -> LaneBounds {
+        LaneBounds {
+            centre: [self.centre[0][k], self.centre[1][k], self.centre[2][k]],
+            power_centre: [
+                self.power_centre[0][k],
+                self.power_centre[1][k],
+                self.power_centre[2][k],
+            ],
+            radius: self.radius[k],
+            axis: [self.axis[0][k], self.axis[1][k], self.axis[2][k]],
+            cos_o: self.cos_o[k],
+            cos_e: self.cos_e[k],
+            signed_phi: self.signed_phi[k],
+            spread_sq: self.spread_sq[k],
+        }
+    }
+}
+
+/// One lane's bounds in f32 (the fields of [`Decoded`] at one lane).
+#[derive(Clone, Copy, Debug)]
+struct LaneBounds {
+    centre: [f32; 3],
+    power_centre: [f32; 3],
+    radius: f32,
+    axis: [f32; 3],
+    cos_o: f32,
+    cos_e: f32,
+    signed_phi: f32,
+    spread_sq: f32,
+}
+
+impl LaneBounds {
+    /// Lane k's bounds as coded in `node` ([`WideNode`] says how).
+    #[inline(always)]
+    fn decode(node: &WideNode, k: usize) -> LaneBounds {
+        // Written out axis by axis, not with `map`: a closure left out of line would lose the
+        // caller's AVX2.
+        let centre_of = |a: usize| node.origin[a] + f32::from(node.centre[a][k]) * node.step[a];
+        let centre = [centre_of(0), centre_of(1), centre_of(2)];
+        let radius = f32::from(node.radius[k]) * node.radius_step;
+        let offset_step = radius * (1.0 / OFFSET_MAX);
+        // Lane k's nibble is bits 4k .. 4k + 3 of the four bytes read as one little-endian word.
+        let code = (u32::from_le_bytes(node.spread) >> (4 * k)) & 0xF;
+        let spread = code as f32 * (radius * (1.0 / SPREAD_MAX));
+        LaneBounds {
+            centre,
+            power_centre: [
+                centre[0] + f32::from(node.power_centre[0][k]) * offset_step,
+                centre[1] + f32::from(node.power_centre[1][k]) * offset_step,
+                centre[2] + f32::from(node.power_centre[2][k]) * offset_step,
+            ],
+            radius,
+            axis: [
+                f32::from(node.axis[0][k]) * AXIS_STEP,
+                f32::from(node.axis[1][k]) * AXIS_STEP,
+                f32::from(node.axis[2][k]) * AXIS_STEP,
+            ],
+            cos_o: decode_cos(u32::from(node.cos_o[k])),
+            cos_e: decode_cos(u32::from(node.cos_e[k])),
+            signed_phi: decode_phi(node.phi[k]),
+            spread_sq: spread * spread,
+        }
     }
 }
 
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn lane<const GLOSSY: bool>(
-    node: &Decoded,
-    k: usize,
+    node: &LaneBounds,
     p: Vec3,
     n: Vec3,
     lobe: &Lobe,
@@ -334,12 +400,12 @@ fn lane<const GLOSSY: bool>(
     (near, directed): (f32, f32),
 ) -> f32 {
     let to_p = [
-        p.x - node.centre[0][k],
-        p.y - node.centre[1][k],
-        p.z - node.centre[2][k],
+        p.x - node.centre[0],
+        p.y - node.centre[1],
+        p.z - node.centre[2],
     ];
     let dist_sq = dot(to_p, to_p);
-    let radius = node.radius[k];
+    let radius = node.radius;
     let radius_sq = radius * radius;
     let inv_dist = 1.0 / dist_sq.sqrt();
     let sin_b = radius * inv_dist;
@@ -353,18 +419,18 @@ fn lane<const GLOSSY: bool>(
     // the cone axis's cosine to the importance is one subtraction of angles long. Both dot
     // products are taken with p − c and then scaled by 1/d, so they wait for the square root
     // only at the end.
-    let signed_phi = node.signed_phi[k];
+    let signed_phi = node.signed_phi;
     let phi = signed_phi.abs();
-    let axis = [node.axis[0][k], node.axis[1][k], node.axis[2][k]];
+    let axis = node.axis;
     let cos_w = dot(axis, to_p) * inv_dist;
     let cos_w = if signed_phi < 0.0 { cos_w.abs() } else { cos_w };
     let sin_w = cofunction(cos_w);
-    let cos_o = node.cos_o[k];
+    let cos_o = node.cos_o;
     let sin_o = cofunction(cos_o);
     let (cos_ob, sin_ob) = plus(cos_o, sin_o, cos_b, sin_b);
     let (cos_os, sin_os) = plus(cos_o, sin_o, cos_s, sin_s);
     let (cos_p, _) = minus(cos_w, sin_w, cos_ob, sin_ob);
-    let emitter_rejects = cos_p <= node.cos_e[k] - COS_SLACK;
+    let emitter_rejects = cos_p <= node.cos_e - COS_SLACK;
     let outside = dist_sq > radius_sq;
     let outside_sharp = dist_sq > SHARP_RADIUS * SHARP_RADIUS * radius_sq;
     let (cos_p_sharp, _) = minus(cos_w, sin_w, cos_os, sin_os);
@@ -384,12 +450,12 @@ fn lane<const GLOSSY: bool>(
     let reject = (outside & (emitter_rejects | receiver_rejects)) | (phi <= 0.0);
     let factor = emitted * received;
     let to_power = [
-        p.x - node.power_centre[0][k],
-        p.y - node.power_centre[1][k],
-        p.z - node.power_centre[2][k],
+        p.x - node.power_centre[0],
+        p.y - node.power_centre[1],
+        p.z - node.power_centre[2],
     ];
     let power_dist_sq = dot(to_power, to_power);
-    let spread_sq = node.spread_sq[k];
+    let spread_sq = node.spread_sq;
     let d_sq = max(
         max(
             (-SPREAD_WEIGHT).mul_add(spread_sq, power_dist_sq),
