@@ -367,8 +367,7 @@ fn share_codes(word: u32) -> [f32; LANES] {
 }
 
 /// Where lane k's four-bit share code sits in its word: lanes 0–3 in the low nibbles of bytes
-/// 0–3, lanes 4–7 in their high nibbles, so that masking the word and the word shifted by 4
-/// gives the eight codes as bytes.
+/// 0–3, lanes 4–7 in their high nibbles (`share_codes` reads lane k by one shift of the word).
 #[inline(always)]
 const fn share_shift(k: usize) -> usize {
     8 * (k % 4) + 4 * (k / 4)

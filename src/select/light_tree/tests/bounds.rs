@@ -1,6 +1,6 @@
 //! Node layout and bounds: sizes, degenerate input, quantised bounds that hold their lights,
-//! cone unions, the lane importance against the same bound written with angles, AVX2 and
-//! portable copies bit for bit.
+//! cone unions, the lane importance against the same bound written with angles, decoded and
+//! coded nodes bit for bit, AVX2 and portable copies bit for bit.
 
 use super::*;
 
@@ -190,6 +190,50 @@ fn importance_with_angles(
         .max(0.05 * r * r)
         .max(0.5 * spread_sq);
     Some(f64::from(b.phi) * emitted * received / d_sq)
+}
+
+/// The walk reads the top nodes from their decoded copy and the others from their codes, one
+/// lane at a time: both must give the same bits, with and without a receiver, a lobe or the
+/// root's table terms.
+#[test]
+fn kept_decoded_nodes_give_the_same_importances_as_their_codes() {
+    let mut rng = Rand::new(12);
+    let scene = random_scene(&mut rng, 3000);
+    let (bvh, _) = LightBvh::build(&scene.bounds);
+    let (mut compared, mut with_table) = (0, 0);
+    for (p, n) in receivers(&mut rng, &scene, 60) {
+        let wo = (rng.unit() + n).normalize_or(n);
+        let glossy = Lobe {
+            r: 2.0 * n.dot(wo) * n - wo,
+            sharpness: 10f32.powf(rng.range(-1.0, 4.0)),
+            gain: 10f32.powf(rng.range(-2.0, 4.0)),
+        };
+        let near = bvh.near.as_ref().and_then(|field| field.at(p, n));
+        with_table += usize::from(near.is_some());
+        for node in &bvh.nodes {
+            let decoded = Decoded::of(node);
+            for (lobe, receiver, terms) in [
+                (Lobe::NONE, n, None),
+                (Lobe::NONE, Vec3::ZERO, None),
+                (glossy, n, None),
+                (Lobe::NONE, n, near),
+                (glossy, n, near),
+            ] {
+                let coded = importances(node, p, receiver, &lobe, terms);
+                let kept = decoded_importances(&decoded, p, receiver, &lobe, terms);
+                assert_eq!(
+                    coded.map(f32::to_bits),
+                    kept.map(f32::to_bits),
+                    "p {p} n {n}"
+                );
+                compared += 1;
+            }
+        }
+    }
+    assert!(
+        compared > 1000 && with_table > 10,
+        "{compared} {with_table}"
+    );
 }
 
 #[test]
