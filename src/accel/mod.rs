@@ -5,7 +5,8 @@
 //! tree nearest child first with an eight-children-at-once node test (`walk_avx2`,
 //! `node_avx2`), a pixel's camera rays in one packet (`packet_avx2`); elsewhere the walk is
 //! obvhs's `traverse!` loop. All find the same hits, but where a ray grazes a box corner within
-//! a few ulps (the AVX2 node test rounds once where obvhs rounds twice: `node_avx2`).
+//! a few ulps (the AVX2 node test reads the boxes as f32 planes, `planes`, and rounds a plane's
+//! distance otherwise than obvhs: `node_avx2`).
 //!
 //! The triangles are stored eight to a block, field by field (`triangles`), and tested there.
 
@@ -27,6 +28,8 @@ mod cut;
 mod node_avx2;
 #[cfg(target_arch = "x86_64")]
 mod packet_avx2;
+#[cfg(target_arch = "x86_64")]
+mod planes;
 mod triangles;
 #[cfg(target_arch = "x86_64")]
 mod triangles_avx2;
@@ -52,6 +55,9 @@ pub struct Accel {
     triangles: Triangles,
     /// Whether the CPU has what the AVX2 walk is compiled for (`has_simd_walk`).
     avx2: bool,
+    /// The child boxes of each node as f32 planes, for the AVX2 walk (empty without it).
+    #[cfg(target_arch = "x86_64")]
+    planes: Vec<planes::ChildPlanes>,
 }
 
 impl Accel {
@@ -68,16 +74,29 @@ impl Accel {
                 .iter()
                 .map(|&i| scene.triangles[i as usize].positions),
         );
+        #[cfg(target_arch = "x86_64")]
+        let planes = if avx2 {
+            planes::child_planes(&bvh.nodes)
+        } else {
+            Vec::new()
+        };
         Accel {
             bvh,
             triangles,
             avx2,
+            #[cfg(target_arch = "x86_64")]
+            planes,
         }
     }
 
-    /// Bytes held by the BVH nodes, index map and reordered triangles.
+    /// Bytes held by the BVH nodes (and their planes), index map and reordered triangles.
     pub fn bytes(&self) -> usize {
+        #[cfg(target_arch = "x86_64")]
+        let planes = std::mem::size_of_val(self.planes.as_slice());
+        #[cfg(not(target_arch = "x86_64"))]
+        let planes = 0;
         std::mem::size_of_val(self.bvh.nodes.as_slice())
+            + planes
             + std::mem::size_of_val(self.bvh.primitive_indices.as_slice())
             + self.triangles.bytes()
     }
@@ -160,8 +179,9 @@ impl Accel {
         let mut walk_ray = *ray;
         walk_avx2::walk(
             &self.bvh.nodes,
+            &self.planes,
             &mut walk_ray,
-            |ray, node| node_avx2::test_children(node, &node_ray, ray.tmax),
+            |ray, planes| node_avx2::test_children(planes, &node_ray, ray.tmax),
             |ray| ray.tmax,
             leaf,
         );

@@ -1,41 +1,39 @@
-//! obvhs's CWBVH node test with all eight children in one AVX2 pass.
+//! The CWBVH node test with all eight children in one AVX2 pass, on the children's boxes as
+//! f32 planes (`planes`: obvhs's 8-bit codes decoded once after the build, rounded outward).
 //!
-//! A child box is stored as 8-bit offsets q on the node's grid: plane = p + 2^e · q per axis.
-//! The ray is moved into that grid instead (slab test, Kay & Kajiya 1986): with
-//! s = 2^e / d and o' = (p − o) / d per axis, a plane's distance is t = q·s + o'. A child is hit
-//! when max(t_near) ≤ min(t_far) after clamping to [1e-4, ray.tmax], as in obvhs's own test
-//! (`CwBvhNode::intersect_ray`), with two differences that shorten the chain of dependent
-//! instructions: t is one FMA (obvhs rounds the product and then the sum), and the clamps join
-//! the max/min tree as a fourth operand (two levels, not three). So the masks agree except for a
-//! child whose entry and exit lie within a few ulps of each other (a grazed box corner: the
-//! test in `tests.rs` checks every disagreement is one, and found none in 1,896 rays; the walk's
-//! triangle tests decide the hit itself) or a NaN distance, which needs coordinates beyond about
-//! 1e31. `cargo bench --bench rays` at dc1fd63, six alternating rounds against the exact form:
-//! town camera / shadow / bounce 6.94 / 4.87 / 4.12 → 7.19 / 5.05 / 4.42 Mrays/s, 50k city
-//! 8.81 / 5.95 / 5.92 → 9.09 / 6.13 / 6.32 (+3 to +7%). obvhs converts each child's bytes to
-//! floats one at a time, four children per pass; here one widening conversion per axis bound
-//! serves all eight (and all the rays of a packet), and the traversal mask is built in the
-//! vector too.
+//! Slab test (Kay & Kajiya 1986): with 1/d the ray's inverse direction and o its origin, a
+//! plane x's distance is t = (x − o) · (1/d). The difference comes first: x · (1/d) − o · (1/d)
+//! would be one FMA, but where a scene lies far from the origin (10 cm across at 1 km) the
+//! rounding of o · (1/d) is a few percent of a small box, and rays aimed near a triangle's
+//! vertex miss its leaf. A child is hit when max(t_near) ≤ min(t_far) after clamping
+//! to [1e-4, ray.tmax], as in obvhs's own test (`CwBvhNode::intersect_ray`); the clamps join
+//! the max/min tree as a fourth operand (two levels, not three). obvhs moves the ray into the
+//! node's grid instead (t = q · 2^e/d + (p − o)/d), so the masks agree except
+//! for a child whose entry and exit lie within a few ulps of each other (a grazed box corner:
+//! the test in `tests.rs` checks every disagreement is one; the walk's triangle tests decide
+//! the hit itself) or a NaN distance, which needs coordinates beyond about 1e31. The planes
+//! take the widening and conversion of the codes (and the node's grid) off the walk's chain of
+//! dependent instructions, node load → node test → next node.
 
 #[cfg(target_arch = "x86_64")]
 use std::arch::x86_64::*;
 
-use std::mem::offset_of;
-
-use glam::Vec3A;
+#[cfg(test)]
 use obvhs::cwbvh::node::CwBvhNode;
 use obvhs::ray::Ray;
 
-/// What the node test needs of a ray, fixed for its whole walk: its origin, inverse direction,
-/// and per axis which of a child's two planes is near (the lower one when the ray runs toward
-/// +axis), as the byte offsets in a node of the near and far planes' offsets. Chosen once per
-/// ray, so a node's test loads the near and far bytes directly instead of loading both and
-/// picking by the direction's sign.
+use super::planes::ChildPlanes;
+
+/// What the node test needs of a ray, fixed for its whole walk: per axis its origin o and
+/// inverse direction 1/d, and which of a child's two planes is near (the lower one when the ray
+/// runs toward +axis), as the indices in `ChildPlanes` of the near and far planes. Chosen once
+/// per ray, so a node's test loads the near and far planes directly instead of loading both
+/// and picking by the direction's sign.
 #[cfg(target_arch = "x86_64")]
 #[derive(Clone, Copy)]
 pub(super) struct NodeRay {
-    origin: Vec3A,
-    inv_direction: Vec3A,
+    origin: [f32; 3],
+    inv_direction: [f32; 3],
     negative: [bool; 3],
     near: [usize; 3],
     far: [usize; 3],
@@ -45,70 +43,56 @@ pub(super) struct NodeRay {
 impl NodeRay {
     #[inline]
     pub(super) fn new(ray: &Ray) -> NodeRay {
-        let lower = [
-            offset_of!(CwBvhNode, child_min_x),
-            offset_of!(CwBvhNode, child_min_y),
-            offset_of!(CwBvhNode, child_min_z),
-        ];
-        let upper = [
-            offset_of!(CwBvhNode, child_max_x),
-            offset_of!(CwBvhNode, child_max_y),
-            offset_of!(CwBvhNode, child_max_z),
-        ];
+        let (o, inv) = (ray.origin, ray.inv_direction);
         let d = ray.direction;
         let negative = [d.x < 0.0, d.y < 0.0, d.z < 0.0];
-        let pick = |toward_negative: bool| {
-            [0, 1, 2].map(|a| {
-                if negative[a] == toward_negative {
-                    lower[a]
-                } else {
-                    upper[a]
-                }
-            })
-        };
+        let mut near = [0; 3];
+        let mut far = [0; 3];
+        for axis in 0..3 {
+            let (lower, upper) = (2 * axis, 2 * axis + 1);
+            (near[axis], far[axis]) = if negative[axis] {
+                (upper, lower)
+            } else {
+                (lower, upper)
+            };
+        }
         NodeRay {
-            origin: ray.origin,
-            inv_direction: ray.inv_direction,
+            origin: o.into(),
+            inv_direction: inv.into(),
             negative,
-            near: pick(false),
-            far: pick(true),
+            near,
+            far,
         }
     }
 }
 
-/// A node's child boxes as f32 lanes on its grid, per axis (x, y, z): the lower and upper
-/// offsets, before the ray's direction picks which is near.
+/// A node's child planes as f32 lanes (the rays of a packet share one load).
 #[cfg(target_arch = "x86_64")]
-pub(super) type ChildBoxes = [(__m256, __m256); 3];
+pub(super) type ChildBoxes = [__m256; 6];
 
-/// The node's eight child boxes, widened once (the rays of a packet share them).
+/// The node's eight child boxes, loaded once.
 ///
 /// # Safety
 /// The CPU must support AVX2 and FMA.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 #[inline]
-pub(super) unsafe fn child_boxes(node: &CwBvhNode) -> ChildBoxes {
-    [0, 1, 2].map(|axis| axis_bounds(node, axis))
-}
-
-/// The lower and upper offsets of the eight children along `axis`, as f32 lanes.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-#[inline]
-unsafe fn axis_bounds(node: &CwBvhNode, axis: usize) -> (__m256, __m256) {
-    let (lo, hi) = match axis {
-        0 => (&node.child_min_x, &node.child_max_x),
-        1 => (&node.child_min_y, &node.child_max_y),
-        _ => (&node.child_min_z, &node.child_max_z),
-    };
-    (widen(lo), widen(hi))
+pub(super) unsafe fn child_boxes(planes: &ChildPlanes) -> ChildBoxes {
+    let p = &planes.0;
+    [
+        _mm256_load_ps(p[0].as_ptr()),
+        _mm256_load_ps(p[1].as_ptr()),
+        _mm256_load_ps(p[2].as_ptr()),
+        _mm256_load_ps(p[3].as_ptr()),
+        _mm256_load_ps(p[4].as_ptr()),
+        _mm256_load_ps(p[5].as_ptr()),
+    ]
 }
 
 /// All-ones in the lanes of the children `ray` hits (the slab test of the module header)
-/// with the ray's current `tmax`, the near and far planes' offsets along each axis as f32
-/// lanes from `planes(axis)`; and each child's entry distance max(t_near, 1e-4) (meaningful in
-/// hit lanes).
+/// with the ray's current `tmax`, the near and far planes along each axis as f32 lanes from
+/// `planes(axis)`; and each child's entry distance max(t_near, 1e-4) (meaningful in hit
+/// lanes).
 ///
 /// # Safety
 /// The CPU must support AVX2 and FMA.
@@ -116,19 +100,16 @@ unsafe fn axis_bounds(node: &CwBvhNode, axis: usize) -> (__m256, __m256) {
 #[target_feature(enable = "avx2,fma")]
 #[inline]
 pub(super) unsafe fn hit_and_entry(
-    node: &CwBvhNode,
     ray: &NodeRay,
     tmax: f32,
     planes: impl Fn(usize) -> (__m256, __m256),
 ) -> (__m256, __m256) {
     /// obvhs's fixed lower clamp of a child's entry distance.
     const ENTRY_EPSILON: f32 = 1e-4;
-    let scale = node.compute_extent() * ray.inv_direction;
-    let shift = (Vec3A::from(node.p) - ray.origin) * ray.inv_direction;
-    // Axis by axis, each widened where it is used (faster than all six up front).
-    let (near_x, far_x) = slab(planes(0), scale.x, shift.x);
-    let (near_y, far_y) = slab(planes(1), scale.y, shift.y);
-    let (near_z, far_z) = slab(planes(2), scale.z, shift.z);
+    // Axis by axis, each loaded where it is used.
+    let (near_x, far_x) = slab(planes(0), ray, 0);
+    let (near_y, far_y) = slab(planes(1), ray, 1);
+    let (near_z, far_z) = slab(planes(2), ray, 2);
     let entry = _mm256_max_ps(
         _mm256_max_ps(near_x, _mm256_set1_ps(ENTRY_EPSILON)),
         _mm256_max_ps(near_y, near_z),
@@ -140,7 +121,7 @@ pub(super) unsafe fn hit_and_entry(
     (_mm256_cmp_ps::<_CMP_LE_OS>(entry, exit), entry)
 }
 
-/// The near and far planes of `axis` for `ray` from a node's `boxes` (widened once for the
+/// The near and far planes of `axis` for `ray` from a node's `boxes` (loaded once for the
 /// rays of a packet).
 ///
 /// # Safety
@@ -153,7 +134,7 @@ pub(super) unsafe fn box_planes(
     ray: &NodeRay,
     axis: usize,
 ) -> (__m256, __m256) {
-    let (lo, hi) = boxes[axis];
+    let (lo, hi) = (boxes[2 * axis], boxes[2 * axis + 1]);
     if ray.negative[axis] {
         (hi, lo)
     } else {
@@ -172,7 +153,7 @@ pub(super) unsafe fn box_planes(
 #[inline]
 pub(super) unsafe fn traversal_mask(node: &CwBvhNode, oct_inv4: u32, hit: __m256) -> u32 {
     let (child_bits8, bit_index8) = node.get_child_and_index_bits(oct_inv4);
-    let lanes = |x: u64| bytes_to_lanes(_mm_cvtsi64_si128(x as i64));
+    let lanes = |x: u64| _mm256_cvtepu8_epi32(_mm_cvtsi64_si128(x as i64));
     let bits = _mm256_and_si256(
         _mm256_sllv_epi32(lanes(child_bits8), lanes(bit_index8)),
         _mm256_castps_si256(hit),
@@ -186,47 +167,39 @@ pub(super) unsafe fn traversal_mask(node: &CwBvhNode, oct_inv4: u32, hit: __m256
     _mm_cvtsi128_si32(one) as u32
 }
 
-/// The hit mask and entry distances (`hit_and_entry`) of the children of `node` for one ray,
-/// the near and far planes read directly from the node's bytes.
+/// The hit mask and entry distances (`hit_and_entry`) of the children of a node with child
+/// `planes` for one ray, the near and far planes loaded directly.
 ///
 /// # Safety
 /// The CPU must support AVX2 and FMA.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 #[inline]
-pub(super) unsafe fn test_children(node: &CwBvhNode, ray: &NodeRay, tmax: f32) -> (__m256, __m256) {
-    let bytes = (node as *const CwBvhNode).cast::<u8>();
-    // SAFETY: `near` and `far` hold offsets of [u8; 8] fields of `CwBvhNode`.
-    let planes = |axis| unsafe {
+pub(super) unsafe fn test_children(
+    planes: &ChildPlanes,
+    ray: &NodeRay,
+    tmax: f32,
+) -> (__m256, __m256) {
+    let p = &planes.0;
+    // SAFETY: `near` and `far` hold plane indices below 6; the planes are 64-byte aligned.
+    let load = |axis: usize| unsafe {
         (
-            widen(&*bytes.add(ray.near[axis]).cast()),
-            widen(&*bytes.add(ray.far[axis]).cast()),
+            _mm256_load_ps(p.get_unchecked(ray.near[axis]).as_ptr()),
+            _mm256_load_ps(p.get_unchecked(ray.far[axis]).as_ptr()),
         )
     };
-    hit_and_entry(node, ray, tmax, planes)
+    hit_and_entry(ray, tmax, load)
 }
 
-/// The low eight bytes of `bytes` as eight u32 lanes.
+/// Distances t = (x − o) · (1/d) to the near and far planes of `axis` for the eight children.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 #[inline]
-unsafe fn bytes_to_lanes(bytes: __m128i) -> __m256i {
-    _mm256_cvtepu8_epi32(bytes)
-}
-
-/// Eight u8 grid offsets as eight f32 lanes.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-#[inline]
-unsafe fn widen(q: &[u8; 8]) -> __m256 {
-    _mm256_cvtepi32_ps(bytes_to_lanes(_mm_loadl_epi64(q.as_ptr().cast())))
-}
-
-/// Distances t = q·s + o to the near and far planes of one axis for the eight children.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-#[inline]
-unsafe fn slab((near, far): (__m256, __m256), s: f32, o: f32) -> (__m256, __m256) {
-    let (s, o) = (_mm256_set1_ps(s), _mm256_set1_ps(o));
-    (_mm256_fmadd_ps(near, s, o), _mm256_fmadd_ps(far, s, o))
+unsafe fn slab((near, far): (__m256, __m256), ray: &NodeRay, axis: usize) -> (__m256, __m256) {
+    let s = _mm256_set1_ps(ray.inv_direction[axis]);
+    let o = _mm256_set1_ps(ray.origin[axis]);
+    (
+        _mm256_mul_ps(_mm256_sub_ps(near, o), s),
+        _mm256_mul_ps(_mm256_sub_ps(far, o), s),
+    )
 }

@@ -68,16 +68,17 @@ impl Accel {
         };
         walk_avx2::walk(
             &self.bvh.nodes,
+            &self.planes,
             &mut packet,
-            |packet, node| {
+            |packet, planes| {
                 // The children any ray hits, at the least entry among those rays; the boxes
-                // are widened once for all the rays.
-                let boxes = node_avx2::child_boxes(node);
+                // are loaded once for all the rays.
+                let boxes = node_avx2::child_boxes(planes);
                 let mut hit = _mm256_setzero_ps();
                 let mut entry = _mm256_set1_ps(f32::INFINITY);
                 for (ray, node_ray) in packet.rays.iter().zip(&node_rays) {
                     let planes = |axis| node_avx2::box_planes(&boxes, node_ray, axis);
-                    let (lanes, t) = node_avx2::hit_and_entry(node, node_ray, ray.tmax, planes);
+                    let (lanes, t) = node_avx2::hit_and_entry(node_ray, ray.tmax, planes);
                     hit = _mm256_or_ps(hit, lanes);
                     entry = _mm256_min_ps(_mm256_blendv_ps(entry, t, lanes), entry);
                 }

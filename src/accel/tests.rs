@@ -136,8 +136,9 @@ fn closest_hits_match_an_exhaustive_search_on_both_code_paths() {
 
 /// The AVX2 node test gives obvhs's own hit mask, for one ray and for the rays of a packet
 /// OR-ed, on every node of a BVH, rays in random and axis-aligned directions — except for a
-/// child the ray grazes: one that the two roundings of a plane distance (one here, by FMA; two
-/// in obvhs) can put on either side, which `grazes` checks in f64.
+/// child the ray grazes: one that the roundings of a plane distance (of the plane to f32, the
+/// difference and the product here; two in obvhs) can put on either side, which `grazes`
+/// checks in f64.
 #[cfg(target_arch = "x86_64")]
 #[test]
 fn the_avx2_node_test_gives_obvhs_masks_but_for_grazed_children() {
@@ -148,7 +149,7 @@ fn the_avx2_node_test_gives_obvhs_masks_but_for_grazed_children() {
     let scene = triangle_soup(&mut u, 2000, 0.8);
     let accel = Accel::build(&scene);
     let (mut compared, mut nonzero, mut grazed) = (0, 0, 0);
-    for node in &accel.bvh.nodes {
+    for (node, planes) in accel.bvh.nodes.iter().zip(&accel.planes) {
         // Rays toward a random point of the node's box (most hit some child), every third
         // along an axis instead (0 · ∞ in the slab test), with random lengths.
         let extent = Vec3::from(node.compute_extent()) * 255.0;
@@ -169,12 +170,12 @@ fn the_avx2_node_test_gives_obvhs_masks_but_for_grazed_children() {
         let (mut expected_or, mut grazed_here) = (0, 0);
         // SAFETY: the CPU reported AVX2 and FMA above.
         unsafe {
-            let boxes = node_avx2::child_boxes(node);
+            let boxes = node_avx2::child_boxes(planes);
             let mut lanes = std::arch::x86_64::_mm256_setzero_ps();
             for ray in &rays {
                 let expected = node.intersect_ray(ray, oct_inv4);
                 let node_ray = node_avx2::NodeRay::new(ray);
-                let (hit, _) = node_avx2::test_children(node, &node_ray, ray.tmax);
+                let (hit, _) = node_avx2::test_children(planes, &node_ray, ray.tmax);
                 let got = node_avx2::traversal_mask(node, oct_inv4, hit);
                 for child in 0..8 {
                     let lane = node_avx2::traversal_mask(node, oct_inv4, one_lane(child));
@@ -191,7 +192,7 @@ fn the_avx2_node_test_gives_obvhs_masks_but_for_grazed_children() {
                 compared += 1;
                 lanes = std::arch::x86_64::_mm256_or_ps(
                     lanes,
-                    node_avx2::hit_and_entry(node, &node_ray, ray.tmax, |axis| {
+                    node_avx2::hit_and_entry(&node_ray, ray.tmax, |axis| {
                         node_avx2::box_planes(&boxes, &node_ray, axis)
                     })
                     .0,
@@ -227,7 +228,8 @@ fn one_lane(child: usize) -> std::arch::x86_64::__m256 {
 
 /// Whether `ray` grazes child `child` of `node`: in f64, from the same f32 scale 2^e / d and
 /// offset (p − o) / d per axis, its entry and exit distances (clamped as obvhs clamps them) lie
-/// within the rounding error either f32 evaluation of t = q·s + o' can make, 4 ulps of
+/// within the rounding error either f32 evaluation (obvhs's t = q·s + o', or the planes'
+/// (x − o) · (1/d), whose |x − o| / |d| is at most |q·s| + |o'|) can make, 4 ulps of
 /// |q·s| + |o'|.
 #[cfg(target_arch = "x86_64")]
 fn grazes(node: &CwBvhNode, ray: &Ray, child: usize) -> bool {
@@ -247,6 +249,53 @@ fn grazes(node: &CwBvhNode, ray: &Ray, child: usize) -> bool {
         error = error.max(f64::from(lo.max(hi)) * s.abs() + o.abs());
     }
     (entry - exit).abs() <= 4.0 * f64::from(f32::EPSILON) * error
+}
+
+/// Each node's f32 planes hold its children's boxes as obvhs's codes give them,
+/// p + 2^e · q (exact in f64), rounded outward: a lower plane at or below it by less than one
+/// f32 step, an upper one at or above it; on random soups at three scales.
+#[cfg(target_arch = "x86_64")]
+#[test]
+fn child_planes_round_the_decoded_boxes_outward() {
+    let mut u = uniforms(11);
+    let (mut rounded, mut exact) = (0, 0);
+    for size in [1e-3f32, 0.7, 3e4] {
+        let scene = triangle_soup(&mut u, 1500, size);
+        let accel = Accel::build(&scene);
+        let nodes = &accel.bvh.nodes;
+        for (node, planes) in nodes.iter().zip(planes::child_planes(nodes)) {
+            let codes = [
+                node.child_min_x,
+                node.child_max_x,
+                node.child_min_y,
+                node.child_max_y,
+                node.child_min_z,
+                node.child_max_z,
+            ];
+            for (plane, (row, q)) in planes.0.iter().zip(codes).enumerate() {
+                let axis = plane / 2;
+                let step = f64::from(node.compute_extent()[axis]);
+                for (&x, q) in row.iter().zip(q) {
+                    let decoded = f64::from(node.p[axis]) + step * f64::from(q);
+                    let x64 = f64::from(x);
+                    let (inside, beyond) = if plane % 2 == 0 {
+                        (x.next_up(), x64 <= decoded)
+                    } else {
+                        (x.next_down(), x64 >= decoded)
+                    };
+                    assert!(beyond, "plane {plane}: {x} vs {decoded}");
+                    let within = (f64::from(inside) - decoded) * (x64 - decoded) <= 0.0;
+                    assert!(within, "plane {plane}: {x} is more than one step out");
+                    if x64 == decoded {
+                        exact += 1;
+                    } else {
+                        rounded += 1;
+                    }
+                }
+            }
+        }
+    }
+    assert!(rounded > 0 && exact > 0, "{rounded} rounded, {exact} exact");
 }
 
 #[test]

@@ -4,9 +4,9 @@
 //! ray's octant and re-enters a child after a nearer hit has put it out of reach.
 //!
 //! At a node, one AVX2 pass gives the children the ray enters before its current tmax and their
-//! entry distances (`node_avx2::test_children`, obvhs's slab test in fewer steps). The triangles
-//! of the leaf children are tested first, all at once (`triangles_avx2`, eight to a pass for
-//! one ray), which may shorten tmax. Of the inner children hit, the nearest is visited next and
+//! entry distances (`node_avx2::test_children`, obvhs's slab test on the boxes as f32 planes).
+//! The triangles of the leaf children are tested first, all at once (`triangles_avx2`, eight to
+//! a pass for one ray), which may shorten tmax. Of the inner children hit, the nearest is visited next and
 //! the others are pushed with their entry distances, nearest on top, their nodes prefetched:
 //! one child goes straight to the next visit, two need one compare and one push, more are
 //! sorted into the stack by insertion and the nearest popped. A child whose entry lies beyond
@@ -23,14 +23,17 @@ use std::mem::MaybeUninit;
 
 use obvhs::cwbvh::node::CwBvhNode;
 
+use super::planes::ChildPlanes;
+
 /// Stack entries: a node's visit pops one entry and pushes at most eight (its inner children),
 /// so a walk through a tree d levels deep holds at most 7·d + 1; 512 (4 KiB, left
 /// uninitialised) covers 73 levels, where obvhs's own walk keeps 32. A deeper tree drops the
 /// newest entries rather than writing past the end, as obvhs's stack does.
 const STACK: usize = 512;
 
-/// Walks the BVH of `nodes` for a query `state` (one ray, or the rays of a packet):
-/// `children(state, node)` gives the hit lanes and entry distances of a node's children (for a
+/// Walks the BVH of `nodes` (with their child boxes as f32 `planes`, one per node) for a query
+/// `state` (one ray, or the rays of a packet): `children(state, planes)` gives the hit lanes
+/// and entry distances of a node's children from its planes (for a
 /// packet: the lanes any ray hits, at the least entry among the rays that hit them),
 /// `reach(state)` the farthest distance any ray still looks at (its tmax), and
 /// `leaf(state, base, mask)` tests the triangles in leaf-order slots `base + i` for the set
@@ -43,12 +46,13 @@ const STACK: usize = 512;
 #[inline]
 pub(super) unsafe fn walk<S>(
     nodes: &[CwBvhNode],
+    planes: &[ChildPlanes],
     state: &mut S,
-    children: impl Fn(&S, &CwBvhNode) -> (__m256, __m256),
+    children: impl Fn(&S, &ChildPlanes) -> (__m256, __m256),
     reach: impl Fn(&S) -> f32,
     mut leaf: impl FnMut(&mut S, u32, u32) -> bool,
 ) {
-    if nodes.is_empty() {
+    if nodes.is_empty() || planes.len() != nodes.len() {
         return;
     }
     let mut stack: [MaybeUninit<(u32, f32)>; STACK] = [MaybeUninit::uninit(); STACK];
@@ -56,7 +60,8 @@ pub(super) unsafe fn walk<S>(
     let mut index = 0u32;
     loop {
         let node = &nodes[index as usize];
-        let (hit, entry) = children(state, node);
+        // SAFETY: `planes` and `nodes` have the same length, and `nodes[index]` exists.
+        let (hit, entry) = children(state, planes.get_unchecked(index as usize));
         let imask = node.imask as u32;
         let hits = _mm256_movemask_ps(hit) as u32;
         let mut inner = hits & imask;
@@ -103,7 +108,7 @@ pub(super) unsafe fn walk<S>(
                     (first, t_first, second, t_second)
                 };
                 let far = child(far);
-                prefetch(nodes, far);
+                prefetch(nodes, planes, far);
                 // SAFETY: `len` stays below `STACK`.
                 *stack.get_unchecked_mut(len) = MaybeUninit::new((far, t_far));
                 len = (len + 1).min(STACK - 1);
@@ -119,7 +124,7 @@ pub(super) unsafe fn walk<S>(
                     inner &= inner - 1;
                     let node = child(slot);
                     let t = entries[slot as usize];
-                    prefetch(nodes, node);
+                    prefetch(nodes, planes, node);
                     // Insertion by falling distance: the nearest ends on top.
                     let mut k = len;
                     // SAFETY: bottom ≤ k ≤ len < STACK.
@@ -151,11 +156,16 @@ pub(super) unsafe fn walk<S>(
     }
 }
 
-/// Starts loading the node at `index` (its 80 bytes span at most two cache lines).
+/// Starts loading the node at `index` (its 80 bytes span at most two cache lines) and its
+/// planes (three).
 #[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,lzcnt")]
 #[inline]
-unsafe fn prefetch(nodes: &[CwBvhNode], index: u32) {
+unsafe fn prefetch(nodes: &[CwBvhNode], planes: &[ChildPlanes], index: u32) {
     let ahead = nodes.as_ptr().wrapping_add(index as usize).cast::<i8>();
     _mm_prefetch::<_MM_HINT_T0>(ahead);
     _mm_prefetch::<_MM_HINT_T0>(ahead.wrapping_add(64));
+    let ahead = planes.as_ptr().wrapping_add(index as usize).cast::<i8>();
+    for line in 0..3 {
+        _mm_prefetch::<_MM_HINT_T0>(ahead.wrapping_add(64 * line));
+    }
 }
