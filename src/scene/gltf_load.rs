@@ -228,7 +228,7 @@ pub fn load_gltf_bytes_allowing(
         texture_map: std::collections::HashMap::new(),
     };
 
-    let mut triangles = Vec::new();
+    let (mut triangles, mut uvs) = (Vec::new(), Vec::new());
     let mut stats = LoadStats::default();
     let mut cameras = Vec::new();
     let mut punctual = Vec::new();
@@ -279,7 +279,13 @@ pub fn load_gltf_bytes_allowing(
                     .material_index(&prim.material())
                     .map_err(|(e, m)| invalid(e, m))?;
                 loader
-                    .read_primitive(&prim, material, &world, &mut triangles, &mut stats)
+                    .read_primitive(
+                        &prim,
+                        material,
+                        &world,
+                        (&mut triangles, &mut uvs),
+                        &mut stats,
+                    )
                     .map_err(|m| invalid(element, m))?;
             }
         }
@@ -295,8 +301,14 @@ pub fn load_gltf_bytes_allowing(
 
     let camera = choose_camera(&cameras, camera).map_err(|m| invalid("camera".into(), m))?;
     let (materials, textures) = (loader.materials, loader.textures);
+    let textured = materials
+        .iter()
+        .any(|m| m.base_color_texture.is_some() || m.emissive_texture.is_some());
+    if !textured {
+        uvs = Vec::new();
+    }
     let scene_element = format!("scene {}", scene.index());
-    let mut scene = Scene::new(triangles, materials, camera)
+    let mut scene = Scene::with_uvs(triangles, uvs, materials, camera)
         .and_then(|s| s.with_punctual(punctual))
         .map(|s| s.with_punctual_units(PunctualUnits::Photometric))
         .and_then(|s| s.with_textures(textures))
@@ -413,7 +425,7 @@ impl Loader<'_> {
         prim: &gltf::Primitive,
         material: u32,
         world: &Mat4,
-        out: &mut Vec<Triangle>,
+        (out, out_uvs): (&mut Vec<Triangle>, &mut Vec<[Vec2; 3]>),
         stats: &mut LoadStats,
     ) -> Result<(), String> {
         let reader = prim.reader(|b| self.buffers.get(b.index()).map(|b| &**b));
@@ -546,9 +558,9 @@ impl Loader<'_> {
             out.push(Triangle {
                 positions: p,
                 normals: n,
-                uvs: uv,
                 material,
             });
+            out_uvs.push(uv);
         }
         Ok(())
     }

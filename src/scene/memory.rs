@@ -12,9 +12,9 @@
 //! not alive at once (the two builds run one after the other, the larger first: see
 //! [`lights_before_geometry`]), so the estimate errs high: against the peak RSS
 //! (`/usr/bin/time -f %M`) of `render --width 64 --height 48 --spp 1 --selector bvh` (the
-//! selector that needs most) it gives 16.8 MB for scenes/town.glb (13.4 measured) and, for
-//! `gen city`, 65.1 MB with 50k lights (41.1), 123 MB with 100k (73.1) and 779 MB with 1M (442;
-//! 402 with `--selector power`).
+//! selector that needs most) it gives 17.0 MB for scenes/town.glb (12.7 measured) and 818 MB for
+//! `gen city --lights 1000000` (426; 387 with `--selector power`); an untextured scene does not
+//! keep the 24 B a triangle of texture coordinates that the estimate counts.
 
 use std::collections::HashSet;
 
@@ -22,9 +22,10 @@ use gltf::mesh::Mode;
 
 /// Resident memory of the program with a tiny scene (cornell: 6.8 MB peak).
 const BASE_BYTES: u64 = 7 << 20;
-/// Scene triangle (100 B) + the geometry BVH's nodes, primitive index and 36-byte test
-/// triangle (49 B on the 1M city), per triangle.
-pub const BYTES_PER_TRIANGLE: u64 = 150;
+/// Scene triangle (76 B) and its texture coordinates (24 B, kept only where a material has a
+/// texture but counted here always) + the geometry BVH's nodes, their child boxes as f32 planes,
+/// primitive index and 36-byte test triangle (70 B on the 1M city), per triangle.
+pub const BYTES_PER_TRIANGLE: u64 = 170;
 /// One `Light` (72 B) per emissive triangle.
 pub const BYTES_PER_LIGHT: u64 = 72;
 /// The geometry BVH's builder per triangle of the parts being built: PLOC's node buffers and
@@ -327,12 +328,12 @@ mod tests {
             pixels: 100,
         };
         let parts =
-            7 * 1024 * 1024 + 50 + 1_000_000 * 150 + (1 << 18) * 224 + 10 * (72 + 262) + 100 * 88;
+            7 * 1024 * 1024 + 50 + 1_000_000 * 170 + (1 << 18) * 224 + 10 * (72 + 262) + 100 * 88;
         assert_eq!(e.total(), parts);
         assert_eq!(
             e.describe(),
-            "an estimated 216 MB, mostly geometry and BVH (geometry and BVH 150 MB for 1000000 \
-             triangles at 150 B; BVH build 58.7 MB for 262144 triangles at once at 224 B; \
+            "an estimated 236 MB, mostly geometry and BVH (geometry and BVH 170 MB for 1000000 \
+             triangles at 170 B; BVH build 58.7 MB for 262144 triangles at once at 224 B; \
              program 7.34 MB; film 8.80 kB for 100 pixels at 88 B; lights 3.34 kB for 10 \
              emitters at 334 B; file 50 B)"
         );

@@ -102,7 +102,6 @@ pub struct Triangle {
     pub positions: [Vec3; 3],
     /// Unit shading normals per vertex (the geometric normal where the file has none).
     pub normals: [Vec3; 3],
-    pub uvs: [Vec2; 3],
     pub material: u32,
 }
 
@@ -113,7 +112,6 @@ impl Triangle {
         Triangle {
             positions,
             normals: [n; 3],
-            uvs: [Vec2::ZERO; 3],
             material,
         }
     }
@@ -223,6 +221,10 @@ pub struct PunctualLight {
 #[derive(Clone, Debug)]
 pub struct Scene {
     pub triangles: Vec<Triangle>,
+    /// Each triangle's texture coordinates per vertex, in the order of `triangles`, where some
+    /// material has a texture; empty otherwise (24 bytes a triangle that an untextured scene
+    /// does not keep).
+    pub uvs: Vec<[Vec2; 3]>,
     pub materials: Vec<Material>,
     /// The camera the file chose (or None when the file has no perspective camera).
     pub camera: Option<Camera>,
@@ -239,13 +241,32 @@ pub struct Scene {
 }
 
 impl Scene {
-    /// Builds a scene from triangles, dropping (and counting) degenerate ones. The triangles are
-    /// filtered in place: a second copy of a 2M-triangle scene would cost 200 MB at load time.
+    /// Builds a scene from triangles without texture coordinates (see
+    /// [`with_uvs`](Self::with_uvs)).
     pub fn new(
-        mut triangles: Vec<Triangle>,
+        triangles: Vec<Triangle>,
         materials: Vec<Material>,
         camera: Option<Camera>,
     ) -> Result<Scene, String> {
+        Scene::with_uvs(triangles, Vec::new(), materials, camera)
+    }
+
+    /// Builds a scene from triangles and their texture coordinates (`uvs`: one entry per
+    /// triangle, or none), dropping (and counting) degenerate triangles. Both are filtered in
+    /// place: a second copy of a 2M-triangle scene would cost 150 MB at load time.
+    pub fn with_uvs(
+        mut triangles: Vec<Triangle>,
+        mut uvs: Vec<[Vec2; 3]>,
+        materials: Vec<Material>,
+        camera: Option<Camera>,
+    ) -> Result<Scene, String> {
+        if !uvs.is_empty() && uvs.len() != triangles.len() {
+            return Err(format!(
+                "{} triangles but {} triangles' texture coordinates",
+                triangles.len(),
+                uvs.len()
+            ));
+        }
         for (i, t) in triangles.iter().enumerate() {
             if t.positions.iter().any(|p| !p.is_finite()) {
                 return Err(format!("triangle {i} has a non-finite vertex position"));
@@ -259,10 +280,17 @@ impl Scene {
             }
         }
         let count = triangles.len();
-        triangles.retain(|t| {
-            let area = t.area();
-            area > 0.0 && area.is_finite() && t.geometric_normal() != Vec3::ZERO
-        });
+        let keep: Vec<bool> = triangles
+            .iter()
+            .map(|t| {
+                let area = t.area();
+                area > 0.0 && area.is_finite() && t.geometric_normal() != Vec3::ZERO
+            })
+            .collect();
+        let mut flags = keep.iter();
+        triangles.retain(|_| *flags.next().unwrap_or(&false));
+        let mut flags = keep.iter();
+        uvs.retain(|_| *flags.next().unwrap_or(&false));
         let stats = LoadStats {
             degenerate_triangles: count - triangles.len(),
             ..LoadStats::default()
@@ -273,6 +301,7 @@ impl Scene {
         }
         Ok(Scene {
             triangles: kept,
+            uvs,
             materials,
             camera,
             punctual: Vec::new(),
@@ -298,13 +327,20 @@ impl Scene {
         Ok(self)
     }
 
-    /// Adds the textures that materials refer to (every material's texture index must be in range).
+    /// Adds the textures that materials refer to (every material's texture index must be in
+    /// range, and a scene with a textured material must have texture coordinates).
     pub fn with_textures(mut self, textures: Vec<Texture>) -> Result<Scene, String> {
         for (i, m) in self.materials.iter().enumerate() {
             for t in [m.base_color_texture, m.emissive_texture]
                 .into_iter()
                 .flatten()
             {
+                if self.uvs.len() != self.triangles.len() {
+                    return Err(format!(
+                        "material {i} uses texture {t} but the triangles have no texture \
+                         coordinates"
+                    ));
+                }
                 if t as usize >= textures.len() {
                     return Err(format!(
                         "material {i} uses texture {t} but there are {} textures",
@@ -321,7 +357,7 @@ impl Scene {
     /// b2·(uv2 − uv0).
     #[inline]
     pub fn uv_at(&self, triangle: usize, b1: f32, b2: f32) -> Vec2 {
-        let [t0, t1, t2] = self.triangles[triangle].uvs;
+        let [t0, t1, t2] = self.uvs[triangle];
         t0 + b1 * (t1 - t0) + b2 * (t2 - t0)
     }
 
@@ -355,7 +391,7 @@ impl Scene {
         let m = self.material_of(triangle);
         match m.emissive_texture {
             Some(t) if m.is_emissive() => {
-                let uvs = self.triangles[triangle].uvs;
+                let uvs = self.uvs[triangle];
                 m.emission * self.textures[t as usize].footprint_mean(uvs)
             }
             _ => m.emission,
@@ -390,5 +426,47 @@ impl Scene {
             (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
             |(lo, hi), p| (lo.min(p), hi.max(p)),
         )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn triangle(z: f32, material: u32) -> Triangle {
+        Triangle::flat([Vec3::new(0.0, 0.0, z), Vec3::X, Vec3::Y], material)
+    }
+
+    /// A degenerate triangle is dropped with its texture coordinates, so every kept triangle
+    /// keeps its own; a textured material needs them.
+    #[test]
+    fn texture_coordinates_follow_their_triangles() {
+        let degenerate = Triangle::flat([Vec3::ZERO, Vec3::X, Vec3::X * 2.0], 0);
+        let uv = |k: f32| [Vec2::splat(k), Vec2::splat(k + 0.25), Vec2::splat(k + 0.5)];
+        let tris = vec![triangle(0.0, 0), degenerate, triangle(1.0, 0)];
+        let scene = Scene::with_uvs(
+            tris.clone(),
+            vec![uv(0.0), uv(1.0), uv(2.0)],
+            vec![Material::default()],
+            None,
+        )
+        .unwrap();
+        assert_eq!(scene.triangles, vec![tris[0].clone(), tris[2].clone()]);
+        assert_eq!(scene.uvs, vec![uv(0.0), uv(2.0)]);
+        assert_eq!(scene.stats.degenerate_triangles, 1);
+        assert!(
+            Scene::with_uvs(tris.clone(), vec![uv(0.0)], vec![Material::default()], None).is_err()
+        );
+        let textured = Material {
+            base_color_texture: Some(0),
+            ..Material::default()
+        };
+        let texture = Texture::new(1, 1, vec![Vec3::ONE], [Wrap::Repeat; 2]).unwrap();
+        let bare = Scene::new(tris.clone(), vec![textured.clone()], None).unwrap();
+        assert!(bare.uvs.is_empty());
+        assert!(bare.with_textures(vec![texture.clone()]).is_err());
+        let with =
+            Scene::with_uvs(tris, vec![uv(0.0), uv(1.0), uv(2.0)], vec![textured], None).unwrap();
+        assert!(with.with_textures(vec![texture]).is_ok());
     }
 }

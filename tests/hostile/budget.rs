@@ -26,8 +26,8 @@ fn scenes_over_the_memory_budget_are_refused_before_their_buffers_are_read() {
         format!(
             "error: {}: scene 0: rendering it needs an estimated 7.72 MB, mostly program \
              (program 7.34 MB; film 360 kB for 4096 pixels at 88 B; BVH build 8.06 kB for 36 \
-             triangles at once at 224 B; file 7.08 kB; geometry and BVH 5.40 kB for 36 \
-             triangles at 150 B; lights 668 B for 2 emitters at 334 B), \
+             triangles at once at 224 B; file 7.08 kB; geometry and BVH 6.12 kB for 36 \
+             triangles at 170 B; lights 668 B for 2 emitters at 334 B), \
              more than the 1.00 MB allowed (--max-memory; by default the memory the system has \
              available)",
             cornell.display()
@@ -43,8 +43,8 @@ fn scenes_over_the_memory_budget_are_refused_before_their_buffers_are_read() {
         &render(&declares, "1G"),
         EXIT_BAD_INPUT,
         &[
-            "declares.gltf: scene 0: rendering it needs an estimated 1.87 GB, mostly geometry \
-             and BVH (geometry and BVH 1.80 GB for 12000000 triangles at 150 B;",
+            "declares.gltf: scene 0: rendering it needs an estimated 2.11 GB, mostly geometry \
+             and BVH (geometry and BVH 2.04 GB for 12000000 triangles at 170 B;",
             "more than the 1.00 GB allowed (--max-memory",
         ],
         &out,

@@ -17,7 +17,7 @@ pub(crate) fn triangle_power_matches_a_brute_force_average_over_its_texels() {
     for light in lights.triangles() {
         let t = light.triangle as usize;
         let (positions, uvs) = expected[t];
-        assert_eq!(scene.triangles[t].uvs, uvs, "triangle {t}'s uvs as written");
+        assert_eq!(scene.uvs[t], uvs, "triangle {t}'s uvs as written");
         let area = 0.5
             * (positions[1] - positions[0])
                 .cross(positions[2] - positions[0])
