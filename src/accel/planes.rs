@@ -11,6 +11,7 @@
 //! an empty slot has neither of.
 
 use obvhs::cwbvh::node::CwBvhNode;
+use rayon::prelude::*;
 
 /// One node's eight child boxes, plane by plane (lower x, upper x, lower y, upper y, lower z,
 /// upper z), eight children per plane so one 32-byte load gives a plane for all of them. 192
@@ -63,7 +64,8 @@ fn outward(p: f32, step: f32, q: u8, upper: bool) -> f32 {
     }
 }
 
-/// The planes of every node of `nodes`, in the same order.
+/// The planes of every node of `nodes`, in the same order, made in parallel (one thread spends
+/// about 35 ms on the 1M-emitter city's 208k nodes).
 pub(super) fn child_planes(nodes: &[CwBvhNode]) -> Vec<ChildPlanes> {
-    nodes.iter().map(ChildPlanes::of).collect()
+    nodes.par_iter().map(ChildPlanes::of).collect()
 }
