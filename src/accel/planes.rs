@@ -65,8 +65,9 @@ fn outward(p: f32, step: f32, q: u8, upper: bool) -> f32 {
     }
 }
 
-/// The planes of every node of `nodes`, in the same order, made in parallel (one thread spends
-/// about 35 ms on the 1M-emitter city's 208k nodes).
+/// The planes of every node of `nodes`, in the same order, made in parallel (on one thread they
+/// were about 0.8% of a 1M-emitter city render's CPU samples in perf; in parallel the render's
+/// `bvh build` line fell from a median 0.985 to 0.963 s, 12 alternating runs).
 pub(super) fn child_planes(nodes: &[CwBvhNode]) -> Vec<ChildPlanes> {
     nodes.par_iter().map(ChildPlanes::of).collect()
 }

@@ -202,12 +202,7 @@ fn kept_decoded_nodes_give_the_same_importances_as_their_codes() {
     let (bvh, _) = LightBvh::build(&scene.bounds);
     let (mut compared, mut with_table) = (0, 0);
     for (p, n) in receivers(&mut rng, &scene, 60) {
-        let wo = (rng.unit() + n).normalize_or(n);
-        let glossy = Lobe {
-            r: 2.0 * n.dot(wo) * n - wo,
-            sharpness: 10f32.powf(rng.range(-1.0, 4.0)),
-            gain: 10f32.powf(rng.range(-2.0, 4.0)),
-        };
+        let glossy = random_lobe(&mut rng, n);
         let near = bvh.near.as_ref().and_then(|field| field.at(p, n));
         with_table += usize::from(near.is_some());
         for node in &bvh.nodes {

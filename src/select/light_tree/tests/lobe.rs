@@ -12,12 +12,7 @@ fn a_lobe_keeps_the_support_and_the_exact_pmf() {
         let scene = random_scene(&mut rng, count);
         let (bvh, _) = LightBvh::build(&scene.bounds);
         for (p, n) in receivers(&mut rng, &scene, 40) {
-            let wo = (rng.unit() + n).normalize_or(n);
-            let lobe = Lobe {
-                r: 2.0 * n.dot(wo) * n - wo,
-                sharpness: 10f32.powf(rng.range(-1.0, 4.0)),
-                gain: 10f32.powf(rng.range(-2.0, 4.0)),
-            };
+            let lobe = random_lobe(&mut rng, n);
             assert_eq!(bvh.root_with(p, n, lobe).is_some(), bvh.can_reach(p, n));
             let mut total = 0.0;
             for l in 0..bvh.len() {

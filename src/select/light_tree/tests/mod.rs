@@ -154,6 +154,17 @@ pub(super) fn random_scene(rng: &mut Rand, count: usize) -> Scene {
     Scene { emitters, bounds }
 }
 
+/// A random glossy lobe at a receiver with normal `n`: the mirror direction of a random `wo`
+/// above it, sharpness over five decades and gain over six.
+pub(super) fn random_lobe(rng: &mut Rand, n: Vec3) -> Lobe {
+    let wo = (rng.unit() + n).normalize_or(n);
+    Lobe {
+        r: 2.0 * n.dot(wo) * n - wo,
+        sharpness: 10f32.powf(rng.range(-1.0, 4.0)),
+        gain: 10f32.powf(rng.range(-2.0, 4.0)),
+    }
+}
+
 /// Receivers (p, n): random; 1e-6 from an emitter; on an emitter's
 /// plane; grazing an emitter point; at an emitter's box centre; with no
 /// normal.
