@@ -7,6 +7,7 @@
 //! [`film`] (f64 Welford mean and variance per pixel) → [`image`] (EXR / PNG, atomic writes).
 
 pub mod accel;
+pub mod alloc;
 pub mod cli;
 pub mod color;
 pub mod cpu;

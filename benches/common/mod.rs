@@ -11,6 +11,11 @@ use manylights::gen::generate::city;
 use manylights::scene::{load_gltf, load_gltf_bytes, Scene};
 use manylights::select::{Lobe, ShadingContext};
 
+/// The program's allocator (`manylights::alloc`), so that builds are measured as the program
+/// runs them.
+#[global_allocator]
+static ALLOCATOR: manylights::alloc::HugePageAllocator = manylights::alloc::HugePageAllocator;
+
 /// `scenes/NAME.glb` of this repository.
 pub fn shipped(name: &str) -> Scene {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("scenes/{name}.glb"));
