@@ -20,6 +20,7 @@ use std::sync::OnceLock;
 use glam::{UVec3, Vec3, Vec3A};
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
+use obvhs::bvh2::Bvh2;
 use obvhs::cwbvh::{builder::build_cwbvh_from_tris, bvh2_to_cwbvh::bvh2_to_cwbvh};
 use obvhs::cwbvh::{node::CwBvhNode, CwBvh};
 use obvhs::ploc::PlocBuilder;
@@ -109,29 +110,45 @@ fn bvh_triangle(p: [Vec3; 3]) -> BvhTriangle {
     }
 }
 
-/// obvhs's medium preset over the triangles `ids` (primitive indices are the scene's ids), the
-/// children in octant order when `ordered`.
-fn build_part(scene: &Scene, ids: &[u32], ordered: bool) -> CwBvh {
-    let params = BvhBuildParams::medium_build();
-    let boxes: Vec<Aabb> = ids
-        .iter()
-        .map(|&i| bvh_triangle(scene.triangles[i as usize].positions).aabb())
-        .collect();
-    let mut bvh2 = PlocBuilder::with_capacity(boxes.len()).build(
-        params.ploc_search_distance,
-        &boxes,
-        (0..ids.len() as u32).collect(),
-        params.sort_precision,
-        params.search_depth_threshold,
-    );
-    drop(boxes);
-    ReinsertionOptimizer::default().run(&mut bvh2, params.reinsertion_batch_ratio, None);
-    let mut bvh = bvh2_to_cwbvh(&bvh2, leaf_max(ordered), ordered, false);
-    // obvhs's leaves index its primitive list by position: the part's own 0..len.
-    for p in &mut bvh.primitive_indices {
-        *p = ids[*p as usize];
+/// What a worker keeps from one part's build to the next: obvhs's builder, its binary tree, its
+/// reinsertion pass and the parts' boxes keep their allocations (sized for the largest part so
+/// far), as obvhs intends them to be reused, so that each part writes into memory already
+/// faulted in rather than fresh pages.
+#[derive(Default)]
+struct PartBuilder {
+    ploc: PlocBuilder,
+    bvh2: Bvh2,
+    reinsertion: ReinsertionOptimizer,
+    boxes: Vec<Aabb>,
+}
+
+impl PartBuilder {
+    /// obvhs's medium preset over the triangles `ids` (primitive indices are the scene's ids),
+    /// the children in octant order when `ordered`.
+    fn build(&mut self, scene: &Scene, ids: &[u32], ordered: bool) -> CwBvh {
+        let params = BvhBuildParams::medium_build();
+        self.boxes.clear();
+        self.boxes.extend(
+            ids.iter()
+                .map(|&i| bvh_triangle(scene.triangles[i as usize].positions).aabb()),
+        );
+        self.ploc.build_with_bvh(
+            &mut self.bvh2,
+            params.ploc_search_distance,
+            &self.boxes,
+            (0..ids.len() as u32).collect(),
+            params.sort_precision,
+            params.search_depth_threshold,
+        );
+        self.reinsertion
+            .run(&mut self.bvh2, params.reinsertion_batch_ratio, None);
+        let mut bvh = bvh2_to_cwbvh(&self.bvh2, leaf_max(ordered), ordered, false);
+        // obvhs's leaves index its primitive list by position: the part's own 0..len.
+        for p in &mut bvh.primitive_indices {
+            *p = ids[*p as usize];
+        }
+        bvh
     }
-    bvh
 }
 
 /// How the triangles are cut: a part is a range of the reordered ids; a join has two to eight
@@ -183,11 +200,14 @@ impl Plan {
         let next = AtomicUsize::new(0);
         rayon::scope(|scope| {
             for _ in 0..BVH_PARTS_AT_ONCE {
-                scope.spawn(|_| loop {
-                    let k = next.fetch_add(1, Ordering::Relaxed);
-                    let Some(range) = ranges.get(k) else { break };
-                    let built = build_part(scene, &ids[range.clone()], ordered);
-                    assert!(parts[k].set(built).is_ok(), "each part is built once");
+                scope.spawn(|_| {
+                    let mut builder = PartBuilder::default();
+                    loop {
+                        let k = next.fetch_add(1, Ordering::Relaxed);
+                        let Some(range) = ranges.get(k) else { break };
+                        let built = builder.build(scene, &ids[range.clone()], ordered);
+                        assert!(parts[k].set(built).is_ok(), "each part is built once");
+                    }
                 });
             }
         });
