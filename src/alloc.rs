@@ -35,16 +35,23 @@ fn mapped_len(size: usize) -> usize {
     size.next_multiple_of(PAGE)
 }
 
-/// A fresh zero-filled mapping of at least `size` bytes, advised to use huge pages, or null.
+/// A fresh zero-filled mapping of at least `size` bytes starting on a huge-page boundary,
+/// advised to use huge pages, or null. The kernel aligns only mappings whose length is a
+/// multiple of 2 MiB: so `size` rounded up to a page, plus 2 MiB less a page, is mapped, and the
+/// slack before the boundary and after the block is unmapped again. Every whole 2 MiB of the
+/// block can then be one huge page; only its last, partial one is made of small pages.
 #[cfg(target_os = "linux")]
 unsafe fn map(size: usize) -> *mut u8 {
     let len = mapped_len(size);
+    let Some(reserve) = len.checked_add(HUGE_MIN - PAGE) else {
+        return null_mut();
+    };
     // SAFETY: an anonymous private mapping at an address of the kernel's choice touches no
     // existing memory.
     let p = unsafe {
         libc::mmap(
             null_mut(),
-            len,
+            reserve,
             libc::PROT_READ | libc::PROT_WRITE,
             libc::MAP_PRIVATE | libc::MAP_ANONYMOUS,
             -1,
@@ -54,8 +61,22 @@ unsafe fn map(size: usize) -> *mut u8 {
     if p == libc::MAP_FAILED {
         return null_mut();
     }
-    advise_huge(p, len);
-    p.cast()
+    let base = p as usize;
+    // `base` is page-aligned, so the boundary lies at most 2 MiB − 4 KiB on, and the block ends
+    // within the reservation.
+    let start = base.next_multiple_of(HUGE_MIN);
+    let (head, tail) = (start - base, base + reserve - (start + len));
+    // SAFETY: both ranges are page-aligned parts of the reservation just made, outside the block.
+    unsafe {
+        if head > 0 {
+            libc::munmap(p, head);
+        }
+        if tail > 0 {
+            libc::munmap((start + len) as *mut libc::c_void, tail);
+        }
+    }
+    advise_huge(start as *mut libc::c_void, len);
+    start as *mut u8
 }
 
 /// Asks for huge pages on `len` bytes at `p` (a mapping of ours); refused advice changes nothing.
@@ -119,14 +140,33 @@ unsafe impl GlobalAlloc for HugePageAllocator {
                 if old_len == new_len {
                     return ptr;
                 }
-                // SAFETY: `ptr` is a mapping of ours of `old_len` bytes; on failure it stays
-                // as it was, as `realloc` requires.
-                let p = unsafe { libc::mremap(ptr.cast(), old_len, new_len, libc::MREMAP_MAYMOVE) };
-                if p == libc::MAP_FAILED {
+                // In place where it can: a shrink always, a growth when the pages after the
+                // block are free (the start, on its huge-page boundary, stays).
+                // SAFETY: `ptr` is a mapping of ours of `old_len` bytes; on failure it stays as
+                // it was, as `realloc` requires.
+                let p = unsafe { libc::mremap(ptr.cast(), old_len, new_len, 0) };
+                if p != libc::MAP_FAILED {
+                    advise_huge(p, new_len);
+                    return p.cast();
+                }
+                // Else a new aligned mapping, with the old pages moved (not copied) to its start.
+                // SAFETY: a new mapping.
+                let new = unsafe { map(new_size) };
+                if new.is_null() {
                     return null_mut();
                 }
-                advise_huge(p, new_len);
-                p.cast()
+                // SAFETY: moves the old block's pages over the first `old_len` bytes of the new
+                // mapping, which is ours and at least that long; on failure the old block stays
+                // and the new mapping is released.
+                unsafe {
+                    let flags = libc::MREMAP_MAYMOVE | libc::MREMAP_FIXED;
+                    let moved = libc::mremap(ptr.cast(), old_len, old_len, flags, new);
+                    if moved == libc::MAP_FAILED {
+                        libc::munmap(new.cast(), new_len);
+                        return null_mut();
+                    }
+                }
+                new
             }
             _ => {
                 // Across the threshold: a new block, the contents copied, the old one freed.
@@ -185,6 +225,13 @@ mod tests {
                 p = a.realloc(p, layout, size);
                 assert!(!p.is_null());
                 assert_eq!(p as usize % 64, 0, "alignment kept");
+                if size >= HUGE_MIN {
+                    assert_eq!(
+                        p as usize % HUGE_MIN,
+                        0,
+                        "a mapped block starts on a huge page"
+                    );
+                }
                 assert!(holds(p, kept, 7), "contents kept at {size} bytes");
                 layout = Layout::from_size_align(size, 64).unwrap();
                 fill(p, size, 7);
@@ -241,6 +288,41 @@ mod tests {
             assert!(!huge(&flags), "small block's flags: {flags}");
             a.dealloc(p, large);
             a.dealloc(q, small);
+        }
+    }
+
+    #[test]
+    fn a_block_that_cannot_grow_in_place_moves_to_a_new_huge_page_boundary_with_its_contents() {
+        let a = HugePageAllocator;
+        let layout = Layout::from_size_align(HUGE_MIN + 3 * PAGE, 8).unwrap();
+        let len = mapped_len(layout.size());
+        // SAFETY: the guard page is mapped only where nothing is (NOREPLACE) and unmapped at the
+        // end; the block is freed with its layout.
+        unsafe {
+            let p = a.alloc(layout);
+            fill(p, layout.size(), 5);
+            let guard = libc::mmap(
+                p.add(len).cast(),
+                PAGE,
+                libc::PROT_NONE,
+                libc::MAP_PRIVATE | libc::MAP_ANONYMOUS | libc::MAP_FIXED_NOREPLACE,
+                -1,
+                0,
+            );
+            assert_eq!(
+                guard,
+                p.add(len).cast(),
+                "a guard page right after the block"
+            );
+            let grown = a.realloc(p, layout, 4 * HUGE_MIN);
+            assert!(!grown.is_null());
+            assert_ne!(grown, p, "moved: the guard page is in the way");
+            assert_eq!(grown as usize % HUGE_MIN, 0, "on a huge-page boundary");
+            assert!(holds(grown, layout.size(), 5), "contents moved");
+            let rest = std::slice::from_raw_parts(grown.add(len), 4 * HUGE_MIN - len);
+            assert!(rest.iter().all(|&b| b == 0), "the new part is fresh");
+            a.dealloc(grown, Layout::from_size_align(4 * HUGE_MIN, 8).unwrap());
+            libc::munmap(guard, PAGE);
         }
     }
 
