@@ -170,8 +170,7 @@ unsafe impl GlobalAlloc for HugePageAllocator {
             }
             _ => {
                 // Across the threshold: a new block, the contents copied, the old one freed.
-                // SAFETY: `new_layout` has a non-zero size (at least one side is mapped, and
-                // a block below the threshold grows or shrinks to the other side).
+                // SAFETY: `new_size` is non-zero (`realloc`'s contract).
                 let new = unsafe { self.alloc(new_layout) };
                 if !new.is_null() {
                     // SAFETY: both blocks hold at least the smaller size and do not overlap.
