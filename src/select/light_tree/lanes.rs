@@ -436,16 +436,20 @@ fn lane<const GLOSSY: bool>(
     let (cos_p_sharp, _) = minus(cos_w, sin_w, cos_os, sin_os);
     let emitted = weighted(cos_p_sharp, cos_p, outside_sharp, outside);
 
-    let cos_i = -dot(to_p, n.to_array()) * inv_dist;
-    let sin_i = cofunction(cos_i);
-    let (cos_r, _) = minus(cos_i, sin_i, cos_b, sin_b);
-    let receiver_rejects = receiver & (cos_r <= -COS_SLACK);
-    let (cos_r_sharp, _) = minus(cos_i, sin_i, cos_s, sin_s);
-    let received = if receiver {
-        weighted(cos_r_sharp, cos_r, outside_sharp, outside)
+    // Without a receiver cos θi is taken as 1: then θr = 0, so the receiver rejects nothing and
+    // R is 1 exactly (cos θb, cos θs ≤ 1). Only this cosine depends on the flag: a choice
+    // between whole results made the compiler branch there, and the lanes' masks then went
+    // through memory packed.
+    let cos_i = if receiver {
+        -dot(to_p, n.to_array()) * inv_dist
     } else {
         1.0
     };
+    let sin_i = cofunction(cos_i);
+    let (cos_r, _) = minus(cos_i, sin_i, cos_b, sin_b);
+    let receiver_rejects = cos_r <= -COS_SLACK;
+    let (cos_r_sharp, _) = minus(cos_i, sin_i, cos_s, sin_s);
+    let received = weighted(cos_r_sharp, cos_r, outside_sharp, outside);
 
     let reject = (outside & (emitter_rejects | receiver_rejects)) | (phi <= 0.0);
     let factor = emitted * received;

@@ -175,18 +175,24 @@ impl NearField {
         }
         let base = t.floor().min(self.last - 1.0);
         let f = t - base;
-        // 0 ≤ base ≤ dims − 2 (checked above): each conversion is exact.
-        let (i, j, k) = (
-            base.x as u32 as usize,
-            base.y as u32 as usize,
-            base.z as u32 as usize,
-        );
+        // SAFETY: 0 ≤ base ≤ dims − 2 (checked above, which a NaN fails): each component is a
+        // whole number below 2³², so each conversion is exact.
+        let (i, j, k) = unsafe {
+            (
+                base.x.to_int_unchecked::<u32>() as usize,
+                base.y.to_int_unchecked::<u32>() as usize,
+                base.z.to_int_unchecked::<u32>() as usize,
+            )
+        };
         let (row, slab) = (self.dims[0], self.dims[0] * self.dims[1]);
         let first = i + row * j + slab * k;
-        // The cell's eight points, checked once: corner c = (c & 1, c >> 1 & 1, c >> 2) lies at
-        // `offsets[c]` in it.
-        let points = first..first + slab + row + 2;
-        let (plain_sums, shares) = (self.plain.get(points.clone())?, self.shares.get(points)?);
+        // The cell's eight points, checked once (as one comparison, not eight bounds checks):
+        // corner c = (c & 1, c >> 1 & 1, c >> 2) lies at `first + offsets[c]`, the farthest at
+        // `first + slab + row + 1`.
+        let last = first + slab + row + 1;
+        if last >= self.plain.len() || last >= self.shares.len() {
+            return None;
+        }
         let offsets = [
             0,
             1,
@@ -210,7 +216,8 @@ impl NearField {
         let mut plain = [0.0f32; LANES];
         for (c, offset) in offsets.into_iter().enumerate() {
             let weight = wx[c & 1] * wy[(c >> 1) & 1] * wz[c >> 2];
-            let codes = &plain_sums[offset];
+            // SAFETY: first + offset ≤ last, which is in bounds (checked above).
+            let codes = unsafe { self.plain.get_unchecked(first + offset) };
             for l in 0..LANES {
                 plain[l] = weight.mul_add(decode_sum(codes[l]), plain[l]);
             }
@@ -219,7 +226,8 @@ impl NearField {
         let nearest = usize::from(f.x >= 0.5)
             + row * usize::from(f.y >= 0.5)
             + slab * usize::from(f.z >= 0.5);
-        let nearest = &shares[nearest];
+        // SAFETY: first + nearest ≤ last, which is in bounds (checked above).
+        let nearest = unsafe { self.shares.get_unchecked(first + nearest) };
         let (x, y, z) = (
             share_codes(nearest[facing[0]]),
             share_codes(nearest[facing[1]]),

@@ -244,10 +244,10 @@ pub(super) fn dead_end_mass(bvh: &LightBvh, p: Vec3, n: Vec3, lobe: Lobe) -> f64
     while let Some((i, weight)) = stack.pop() {
         match bvh.importances(i, p, n, lobe) {
             None => mass += weight,
-            Some((importances, total)) => stack.extend(
+            Some(lanes) => stack.extend(
                 interior_lanes(bvh, i)
-                    .filter(|&(k, _)| importances[k] > 0.0)
-                    .map(|(k, child)| (child, weight * importances[k] / total)),
+                    .filter(|&(k, _)| lanes.lanes[k] > 0.0)
+                    .map(|(k, child)| (child, weight * lanes.lanes[k] / lanes.total())),
             ),
         }
     }
