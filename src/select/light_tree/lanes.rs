@@ -260,18 +260,32 @@ fn lane_importances(
         plain: [0.0; LANES],
         directed: [0.0; LANES],
     });
+    let near = (&plain, &directed);
+    // The lobe factor is 1 exactly without a gain: a receiver without a lobe skips it. Each case
+    // is compiled on its own, so that no choice between them is left in the lanes.
+    match (lobe.gain > 0.0, receiver) {
+        (true, true) => lanes::<true, true>(&bounds, p, n, lobe, use_near, near),
+        (true, false) => lanes::<true, false>(&bounds, p, n, lobe, use_near, near),
+        (false, true) => lanes::<false, true>(&bounds, p, n, lobe, use_near, near),
+        (false, false) => lanes::<false, false>(&bounds, p, n, lobe, use_near, near),
+    }
+}
+
+/// [`lane_importances`] for a receiver with a specular lobe or not (`GLOSSY`), with a normal or
+/// not (`RECEIVER`).
+#[inline(always)]
+fn lanes<const GLOSSY: bool, const RECEIVER: bool>(
+    bounds: &impl Fn(usize) -> LaneBounds,
+    p: Vec3,
+    n: Vec3,
+    lobe: &Lobe,
+    use_near: bool,
+    (plain, directed): (&[f32; LANES], &[f32; LANES]),
+) -> [f32; LANES] {
     let mut out = [0.0; LANES];
-    // The lobe factor is 1 exactly without a gain: a receiver without a lobe skips it.
-    if lobe.gain > 0.0 {
-        for (k, out) in out.iter_mut().enumerate() {
-            let near = (plain[k], directed[k]);
-            *out = lane::<true>(&bounds(k), p, n, lobe, receiver, use_near, near);
-        }
-    } else {
-        for (k, out) in out.iter_mut().enumerate() {
-            let near = (plain[k], directed[k]);
-            *out = lane::<false>(&bounds(k), p, n, lobe, receiver, use_near, near);
-        }
+    for (k, out) in out.iter_mut().enumerate() {
+        let near = (plain[k], directed[k]);
+        *out = lane::<GLOSSY, RECEIVER>(&bounds(k), p, n, lobe, use_near, near);
     }
     out
 }
@@ -389,13 +403,11 @@ impl LaneBounds {
 }
 
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
-fn lane<const GLOSSY: bool>(
+fn lane<const GLOSSY: bool, const RECEIVER: bool>(
     node: &LaneBounds,
     p: Vec3,
     n: Vec3,
     lobe: &Lobe,
-    receiver: bool,
     use_near: bool,
     (near, directed): (f32, f32),
 ) -> f32 {
@@ -437,10 +449,8 @@ fn lane<const GLOSSY: bool>(
     let emitted = weighted(cos_p_sharp, cos_p, outside_sharp, outside);
 
     // Without a receiver cos θi is taken as 1: then θr = 0, so the receiver rejects nothing and
-    // R is 1 exactly (cos θb, cos θs ≤ 1). Only this cosine depends on the flag: a choice
-    // between whole results made the compiler branch there, and the lanes' masks then went
-    // through memory packed.
-    let cos_i = if receiver {
+    // R is 1 exactly (cos θb, cos θs ≤ 1).
+    let cos_i = if RECEIVER {
         -dot(to_p, n.to_array()) * inv_dist
     } else {
         1.0
@@ -467,7 +477,7 @@ fn lane<const GLOSSY: bool>(
         ),
         max(SPREAD_FLOOR * spread_sq, f32::MIN_POSITIVE),
     );
-    let value = match (use_near, receiver) {
+    let value = match (use_near, RECEIVER) {
         (true, true) => max(directed, DIRECTED_FLOOR * near * factor),
         (true, false) => near * factor,
         (false, _) => phi / d_sq * factor,

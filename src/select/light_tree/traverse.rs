@@ -368,7 +368,8 @@ impl LightBvh {
         }
         .map(f64::from);
         let mut sums = [0.0; LANES];
-        let mut sum = 0.0;
+        // From −0.0, the additive identity (so the first sum is no addition at all).
+        let mut sum = -0.0;
         for (s, &importance) in sums.iter_mut().zip(&importances) {
             sum += importance;
             *s = sum;
