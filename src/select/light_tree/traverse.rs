@@ -221,7 +221,7 @@ impl LightBvh {
         } else {
             0.0
         };
-        let mut index = 0;
+        let mut node = self.nodes.first()?;
         let mut pmf = 1.0;
         let mut lanes = match root {
             Some(root) => root,
@@ -232,13 +232,15 @@ impl LightBvh {
             let target = u * total;
             let (lane, below, importance) = choose_lane(&lanes, target);
             pmf *= importance / total;
-            let child = self.nodes[index].child(lane);
+            let child = node.child(lane);
             if child & LIGHT_LANE != 0 {
                 return (pmf > 0.0).then_some(((child & !LIGHT_LANE) as usize, pmf));
             }
             // Rescaled only where another choice follows.
             u = ((target - below) / importance).clamp(0.0, LARGEST_BELOW_ONE);
-            index = child as usize;
+            // The node is looked up once: `below_root`'s own lookup of it is the same check.
+            let index = child as usize;
+            node = self.nodes.get(index)?;
             lanes = self.below_root(index, p, n, lobe)?;
         }
     }
@@ -325,7 +327,8 @@ impl LightBvh {
     }
 
     /// The lanes' importances I_k at wide node `index` in f64, and their running sums (lane k is
-    /// chosen with probability I_k / Σ I); `None` when the sum is 0 or the node does not exist. (p, n, lobe) must be finite (see [`is_finite`]).
+    /// chosen with probability I_k / Σ I); `None` when the sum is 0 or the node does not exist.
+    /// (p, n, lobe) must be finite (see [`is_finite`]).
     #[inline(always)]
     pub(super) fn importances(
         &self,
