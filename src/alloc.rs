@@ -140,30 +140,38 @@ unsafe impl GlobalAlloc for HugePageAllocator {
                 if old_len == new_len {
                     return ptr;
                 }
-                // In place where it can: a shrink always, a growth when the pages after the
-                // block are free (the start, on its huge-page boundary, stays).
+                if new_len < old_len {
+                    // A shrink unmaps the tail, whatever mappings the block is made of.
+                    // SAFETY: the tail is part of our mapping of `old_len` bytes at `ptr`.
+                    unsafe { libc::munmap(ptr.add(new_len).cast(), old_len - new_len) };
+                    return ptr;
+                }
+                // A growth stays in place when the pages after the block are free (the start, on
+                // its huge-page boundary, stays).
                 // SAFETY: `ptr` is a mapping of ours of `old_len` bytes; on failure it stays as
-                // it was, as `realloc` requires.
+                // it was.
                 let p = unsafe { libc::mremap(ptr.cast(), old_len, new_len, 0) };
                 if p != libc::MAP_FAILED {
                     advise_huge(p, new_len);
                     return p.cast();
                 }
-                // Else a new aligned mapping, with the old pages moved (not copied) to its start.
+                // Else a new aligned mapping, with the old pages moved to its start (not copied),
+                // or copied where the kernel refuses the move (a block grown before by a move is
+                // two mappings, which mremap may not take as one).
                 // SAFETY: a new mapping.
                 let new = unsafe { map(new_size) };
                 if new.is_null() {
                     return null_mut();
                 }
-                // SAFETY: moves the old block's pages over the first `old_len` bytes of the new
-                // mapping, which is ours and at least that long; on failure the old block stays
-                // and the new mapping is released.
+                // SAFETY: moves or copies the old block (ours, `old_len` bytes) over the start of
+                // the new mapping, which is ours and longer; the old block is gone afterwards
+                // either way.
                 unsafe {
                     let flags = libc::MREMAP_MAYMOVE | libc::MREMAP_FIXED;
                     let moved = libc::mremap(ptr.cast(), old_len, old_len, flags, new);
                     if moved == libc::MAP_FAILED {
-                        libc::munmap(new.cast(), new_len);
-                        return null_mut();
+                        std::ptr::copy_nonoverlapping(ptr, new, layout.size());
+                        libc::munmap(ptr.cast(), old_len);
                     }
                 }
                 new
@@ -320,8 +328,39 @@ mod tests {
             assert!(holds(grown, layout.size(), 5), "contents moved");
             let rest = std::slice::from_raw_parts(grown.add(len), 4 * HUGE_MIN - len);
             assert!(rest.iter().all(|&b| b == 0), "the new part is fresh");
-            a.dealloc(grown, Layout::from_size_align(4 * HUGE_MIN, 8).unwrap());
+            // The moved block is now two mappings (the moved pages and the fresh part): grown
+            // again past a second guard page, it moves (or is copied) once more.
+            fill(grown, 4 * HUGE_MIN, 6);
+            let guard2 = libc::mmap(
+                grown.add(4 * HUGE_MIN).cast(),
+                PAGE,
+                libc::PROT_NONE,
+                libc::MAP_PRIVATE | libc::MAP_ANONYMOUS | libc::MAP_FIXED_NOREPLACE,
+                -1,
+                0,
+            );
+            assert_eq!(
+                guard2,
+                grown.add(4 * HUGE_MIN).cast(),
+                "a second guard page"
+            );
+            let layout = Layout::from_size_align(4 * HUGE_MIN, 8).unwrap();
+            let again = a.realloc(grown, layout, 7 * HUGE_MIN);
+            assert!(!again.is_null());
+            assert_eq!(
+                again as usize % HUGE_MIN,
+                0,
+                "on a huge-page boundary again"
+            );
+            assert!(holds(again, 4 * HUGE_MIN, 6), "contents moved again");
+            // And shrunk across its two mappings.
+            let layout = Layout::from_size_align(7 * HUGE_MIN, 8).unwrap();
+            let small = a.realloc(again, layout, 3 * HUGE_MIN);
+            assert_eq!(small, again, "a shrink stays in place");
+            assert!(holds(small, 3 * HUGE_MIN, 6), "contents kept by the shrink");
+            a.dealloc(small, Layout::from_size_align(3 * HUGE_MIN, 8).unwrap());
             libc::munmap(guard, PAGE);
+            libc::munmap(guard2, PAGE);
         }
     }
 
