@@ -7,8 +7,9 @@
 //! BVH's parts and the light tree's build allocate their temporaries anew, and glibc maps every
 //! block from 1 MiB up on its own (`main.rs` asks for that, to keep the peak low), so each one
 //! is faulted in page by page. On the 1M-emitter city that was about 380,000 faults of 4 KiB
-//! for a peak of 427 MB, and is 22,000 now (README, Layout). Growth (`realloc`) of a mapped block moves its pages with `mremap`,
-//! without copying. The advice is only advice: where the kernel gives no huge pages (THP
+//! for a peak of 427 MB, and is 22,000 now (README, Layout). Growth (`realloc`) of a mapped
+//! block moves its pages with `mremap`, without copying (or copies them where the kernel
+//! refuses the move). The advice is only advice: where the kernel gives no huge pages (THP
 //! disabled, or none free), the blocks are plain mappings, as glibc's would be.
 
 use std::alloc::{GlobalAlloc, Layout, System};

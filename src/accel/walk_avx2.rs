@@ -7,7 +7,8 @@
 //! entry distances (`node_avx2::test_children`, obvhs's slab test on the boxes as f32 planes).
 //! The triangles of the leaf children are tested first, all at once (`triangles_avx2`, eight to
 //! a pass for one ray), which may shorten tmax. Of the inner children hit, the nearest is
-//! visited next and the others are pushed with their entry distances, nearest on top, their nodes prefetched:
+//! visited next and the others are pushed with their entry distances, nearest on top, their
+//! nodes prefetched:
 //! one child goes straight to the next visit, two need one compare and one push, more are
 //! sorted into the stack by insertion and the nearest popped. A child whose entry lies beyond
 //! the ray's tmax (a nearer hit was found since the node test) is dropped without reading its
