@@ -1,6 +1,7 @@
 //! Building the geometry BVH with obvhs: PLOC (parallel locally-ordered clustering, Meister &
 //! Bittner 2018), reinsertion, then conversion to the compressed 8-wide layout (CWBVH, Ylitie,
-//! Karras & Laine 2017).
+//! Karras & Laine 2017) by our own collapse (`collapse.rs`), which makes obvhs's tree node for
+//! node.
 //!
 //! Large scenes are built in parts: the triangles are cut by binned-SAH splits (`cut.rs`) until
 //! every group has at most `part_max` triangles; each part gets its own CWBVH, two parts at a
@@ -17,11 +18,11 @@ use std::ops::Range;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::OnceLock;
 
-use glam::{UVec3, Vec3, Vec3A};
+use glam::{Vec3, Vec3A};
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
 use obvhs::bvh2::Bvh2;
-use obvhs::cwbvh::{builder::build_cwbvh_from_tris, bvh2_to_cwbvh::bvh2_to_cwbvh};
+use obvhs::cwbvh::builder::build_cwbvh_from_tris;
 use obvhs::cwbvh::{node::CwBvhNode, CwBvh};
 use obvhs::ploc::PlocBuilder;
 use obvhs::triangle::Triangle as BvhTriangle;
@@ -31,6 +32,7 @@ use rayon::prelude::*;
 use crate::scene::memory::BVH_PARTS_AT_ONCE;
 use crate::scene::Scene;
 
+use super::collapse::{Collapser, NodeGrid};
 use super::cut::{sah_cut, Item};
 
 /// Up to this many triangles the BVH is built with obvhs's most thorough preset (pre-splitting,
@@ -119,6 +121,7 @@ struct PartBuilder {
     ploc: PlocBuilder,
     bvh2: Bvh2,
     reinsertion: ReinsertionOptimizer,
+    collapser: Collapser,
     boxes: Vec<Aabb>,
 }
 
@@ -142,7 +145,9 @@ impl PartBuilder {
         );
         self.reinsertion
             .run(&mut self.bvh2, params.reinsertion_batch_ratio, None);
-        let mut bvh = bvh2_to_cwbvh(&self.bvh2, leaf_max(ordered), ordered, false);
+        let mut bvh = self
+            .collapser
+            .collapse(&self.bvh2, leaf_max(ordered), ordered);
         // obvhs's leaves index its primitive list by position: the part's own 0..len.
         for p in &mut bvh.primitive_indices {
             *p = ids[*p as usize];
@@ -358,38 +363,16 @@ fn assign_slots(node_box: &Aabb, boxes: &[Aabb]) -> Vec<usize> {
 }
 
 /// A CWBVH node whose children are all interior nodes, child c in slot `slots[c]` with box
-/// `boxes[c]`, the first child's node at `child_base`. The boxes are quantised as obvhs does:
-/// on a grid from the node's lower corner with a power-of-two step per axis, lower bounds
-/// rounded down and upper bounds up.
+/// `boxes[c]`, the first child's node at `child_base`, the boxes quantised as obvhs quantises
+/// them ([`NodeGrid`]).
 fn join_node(node_box: &Aabb, boxes: &[Aabb], slots: &[usize], child_base: u32) -> CwBvhNode {
-    let origin = node_box.min;
-    let step = ((node_box.max - origin).max(Vec3A::splat(1e-20)) * (1.0 / 255.0))
-        .log2()
-        .ceil()
-        .exp2();
-    let inv_step = 1.0 / step;
-    let exponent = UVec3::new(step.x.to_bits(), step.y.to_bits(), step.z.to_bits()) >> 23u32;
-    let mut node = CwBvhNode {
-        p: origin.into(),
-        e: [exponent.x as u8, exponent.y as u8, exponent.z as u8],
-        child_base_idx: child_base,
-        ..CwBvhNode::default()
-    };
+    let grid = NodeGrid::new(node_box);
+    let mut node = grid.empty_node();
+    node.child_base_idx = child_base;
     for (b, &s) in boxes.iter().zip(slots) {
-        let lo = ((b.min - origin) * inv_step)
-            .floor()
-            .clamp(Vec3A::ZERO, Vec3A::splat(255.0));
-        let hi = ((b.max - origin) * inv_step)
-            .ceil()
-            .clamp(Vec3A::ZERO, Vec3A::splat(255.0));
+        grid.set_box(&mut node, s, b);
         node.imask |= 1 << s;
         node.child_meta[s] = 0b0010_0000 | (24 + s as u8);
-        node.child_min_x[s] = lo.x as u8;
-        node.child_min_y[s] = lo.y as u8;
-        node.child_min_z[s] = lo.z as u8;
-        node.child_max_x[s] = hi.x as u8;
-        node.child_max_y[s] = hi.y as u8;
-        node.child_max_z[s] = hi.z as u8;
     }
     node
 }

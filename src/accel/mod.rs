@@ -23,6 +23,7 @@ use triangles::Triangles;
 use triangles_avx2::{nearest_triangle, RayLanes};
 
 mod build;
+mod collapse;
 mod cut;
 #[cfg(target_arch = "x86_64")]
 mod node_avx2;
@@ -69,11 +70,9 @@ impl Accel {
     fn build_in_parts(scene: &Scene, part_max: usize) -> Accel {
         let avx2 = has_simd_walk();
         let bvh = build_bvh(scene, part_max, !avx2);
-        let triangles = Triangles::new(
-            bvh.primitive_indices
-                .iter()
-                .map(|&i| scene.triangles[i as usize].positions),
-        );
+        let triangles = Triangles::new(bvh.primitive_indices.len(), |k| {
+            scene.triangles[bvh.primitive_indices[k] as usize].positions
+        });
         #[cfg(target_arch = "x86_64")]
         let planes = if avx2 {
             planes::child_planes(&bvh.nodes)

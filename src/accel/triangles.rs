@@ -14,6 +14,7 @@
 
 use glam::{Vec3, Vec3A};
 use obvhs::ray::Ray;
+use rayon::prelude::*;
 
 /// Triangles in one block.
 pub(super) const BLOCK: usize = 8;
@@ -67,22 +68,29 @@ pub(super) struct Triangles {
 }
 
 impl Triangles {
-    /// The triangles with the corners `corners`, in that order.
-    pub(super) fn new(corners: impl ExactSizeIterator<Item = [Vec3; 3]>) -> Triangles {
-        let empty = Block {
-            v0: [[0.0; BLOCK]; 3],
-            e1: [[0.0; BLOCK]; 3],
-            e2: [[0.0; BLOCK]; 3],
-        };
-        let mut blocks = vec![empty; corners.len().div_ceil(BLOCK)];
-        for (i, [p0, p1, p2]) in corners.enumerate() {
-            let (block, lane) = (&mut blocks[i / BLOCK], i % BLOCK);
-            for axis in 0..3 {
-                block.v0[axis][lane] = p0[axis];
-                block.e1[axis][lane] = p1[axis] - p0[axis];
-                block.e2[axis][lane] = p2[axis] - p0[axis];
-            }
-        }
+    /// The triangles `corners(k)` for k in 0..count, in that order, a block per rayon task
+    /// (the corners are gathered from the scene in leaf order: random reads, which the second
+    /// core halves).
+    pub(super) fn new(count: usize, corners: impl Fn(usize) -> [Vec3; 3] + Sync) -> Triangles {
+        let blocks = (0..count.div_ceil(BLOCK))
+            .into_par_iter()
+            .map(|b| {
+                let mut block = Block {
+                    v0: [[0.0; BLOCK]; 3],
+                    e1: [[0.0; BLOCK]; 3],
+                    e2: [[0.0; BLOCK]; 3],
+                };
+                for lane in 0..BLOCK.min(count - b * BLOCK) {
+                    let [p0, p1, p2] = corners(b * BLOCK + lane);
+                    for axis in 0..3 {
+                        block.v0[axis][lane] = p0[axis];
+                        block.e1[axis][lane] = p1[axis] - p0[axis];
+                        block.e2[axis][lane] = p2[axis] - p0[axis];
+                    }
+                }
+                block
+            })
+            .collect();
         Triangles { blocks }
     }
 
