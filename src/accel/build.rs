@@ -33,7 +33,7 @@ use crate::scene::memory::BVH_PARTS_AT_ONCE;
 use crate::scene::Scene;
 
 use super::collapse::{Collapser, NodeGrid};
-use super::cut::{sah_cut, Item};
+use super::cut::{sah_cut, Centres, Item};
 
 /// Up to this many triangles the BVH is built with obvhs's most thorough preset (pre-splitting,
 /// reinsertion over all nodes); larger scenes use the medium preset, whose build time stays near
@@ -95,7 +95,8 @@ pub(super) fn build_bvh(scene: &Scene, part_max: usize, ordered: bool) -> CwBvh 
             }
         })
         .collect();
-    let plan = Plan::cut(&mut items, 0, part_max.max(1));
+    let centres = Centres::of(&items);
+    let plan = Plan::cut(&mut items, centres, 0, part_max.max(1));
     let ids: Vec<u32> = items.iter().map(|c| c.id).collect();
     drop(items);
     match plan.build(scene, &ids, ordered) {
@@ -167,30 +168,30 @@ impl Plan {
     /// The plan for `items` (which start at `offset` in the full list), reordering them so
     /// that every part is a contiguous range: a join's children are made by cutting the largest
     /// group above `part_max` in two until there are eight or none is above.
-    fn cut(items: &mut [Item], offset: usize, part_max: usize) -> Plan {
+    fn cut(items: &mut [Item], centres: Centres, offset: usize, part_max: usize) -> Plan {
         if items.len() <= part_max {
             return Plan::Part(offset..offset + items.len());
         }
-        let mut groups = vec![(offset, items)];
+        let mut groups = vec![(offset, items, centres)];
         while groups.len() < WIDTH {
             let (largest, _) = groups
                 .iter()
                 .enumerate()
-                .max_by_key(|(k, (_, g))| (g.len(), std::cmp::Reverse(*k)))
+                .max_by_key(|(k, (_, g, _))| (g.len(), std::cmp::Reverse(*k)))
                 .expect("at least one group");
             if groups[largest].1.len() <= part_max {
                 break;
             }
-            let (start, group) = groups.remove(largest);
-            let mid = sah_cut(group);
+            let (start, group, centres) = groups.remove(largest);
+            let (mid, left_centres, right_centres) = sah_cut(group, centres);
             let (left, right) = group.split_at_mut(mid);
-            groups.insert(largest, (start + mid, right));
-            groups.insert(largest, (start, left));
+            groups.insert(largest, (start + mid, right, right_centres));
+            groups.insert(largest, (start, left, left_centres));
         }
         Plan::Join(
             groups
                 .into_par_iter()
-                .map(|(start, group)| Plan::cut(group, start, part_max))
+                .map(|(start, group, centres)| Plan::cut(group, centres, start, part_max))
                 .collect(),
         )
     }

@@ -4,7 +4,7 @@
 //! A cut minimises A(left)·N(left) + A(right)·N(right) over 32 bins per axis, A the surface area
 //! of a side's box and N its triangle count.
 
-use glam::Vec3;
+use glam::{UVec3, Vec3, Vec3A};
 use rayon::prelude::*;
 
 /// Bins per axis.
@@ -21,23 +21,61 @@ pub(super) struct Item {
 }
 
 impl Item {
-    fn centre(&self) -> Vec3 {
-        (self.lo + self.hi) * 0.5
+    fn centre(&self) -> Vec3A {
+        (Vec3A::from(self.lo) + Vec3A::from(self.hi)) * 0.5
     }
 }
 
-/// A box and the number of items in it.
+/// The box of a group's item centres: the range the bins divide.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Centres {
+    lo: Vec3A,
+    hi: Vec3A,
+}
+
+impl Centres {
+    const EMPTY: Centres = Centres {
+        lo: Vec3A::INFINITY,
+        hi: Vec3A::NEG_INFINITY,
+    };
+
+    fn add(self, other: Centres) -> Centres {
+        Centres {
+            lo: self.lo.min(other.lo),
+            hi: self.hi.max(other.hi),
+        }
+    }
+
+    /// The centres' box of `items` (in parallel).
+    pub(super) fn of(items: &[Item]) -> Centres {
+        items
+            .par_iter()
+            .with_min_len(PARALLEL_MIN_LEN)
+            .fold(
+                || Centres::EMPTY,
+                |b, item| {
+                    let c = item.centre();
+                    b.add(Centres { lo: c, hi: c })
+                },
+            )
+            .reduce(|| Centres::EMPTY, Centres::add)
+    }
+}
+
+/// The boxes of some items, of their centres, and how many they are.
 #[derive(Clone, Copy)]
 struct Bin {
-    lo: Vec3,
-    hi: Vec3,
+    lo: Vec3A,
+    hi: Vec3A,
+    centres: Centres,
     count: usize,
 }
 
 impl Bin {
     const EMPTY: Bin = Bin {
-        lo: Vec3::INFINITY,
-        hi: Vec3::NEG_INFINITY,
+        lo: Vec3A::INFINITY,
+        hi: Vec3A::NEG_INFINITY,
+        centres: Centres::EMPTY,
         count: 0,
     };
 
@@ -45,6 +83,7 @@ impl Bin {
         Bin {
             lo: self.lo.min(other.lo),
             hi: self.hi.max(other.hi),
+            centres: self.centres.add(other.centres),
             count: self.count + other.count,
         }
     }
@@ -59,26 +98,18 @@ impl Bin {
     }
 }
 
-/// Reorders `items` (at least two) into two non-empty halves by the cheapest binned SAH split,
-/// or by the median along the widest axis where every centre falls in one bin; returns the
-/// length of the first half. The same items in the same order always give the same cut.
-pub(super) fn sah_cut(items: &mut [Item]) -> usize {
-    let (lo, hi) = items
-        .par_iter()
-        .with_min_len(PARALLEL_MIN_LEN)
-        .fold(
-            || (Vec3::INFINITY, Vec3::NEG_INFINITY),
-            |(lo, hi), item| (lo.min(item.centre()), hi.max(item.centre())),
-        )
-        .reduce(
-            || (Vec3::INFINITY, Vec3::NEG_INFINITY),
-            |a, b| (a.0.min(b.0), a.1.max(b.1)),
-        );
-    let bin_of = |axis: usize, item: &Item| {
-        let t = (item.centre()[axis] - lo[axis]) / (hi[axis] - lo[axis]);
-        ((t * BINS as f32) as usize).min(BINS - 1)
-    };
+/// Reorders `items` (at least two, their centres' box `centres`) into two non-empty halves by
+/// the cheapest binned SAH split, or by the median along the widest axis where every centre
+/// falls in one bin; returns the length of the first half and the centres' boxes of the two
+/// halves. The same items in the same order always give the same cut.
+pub(super) fn sah_cut(items: &mut [Item], centres: Centres) -> (usize, Centres, Centres) {
+    let Centres { lo, hi } = centres;
     let active = [0, 1, 2].map(|axis| hi[axis] > lo[axis]);
+    // An item's bin on every axis at once (those of inactive axes unused).
+    let bins_of = |item: &Item| {
+        let t = (item.centre() - lo) / (hi - lo) * BINS as f32;
+        t.as_uvec3().min(UVec3::splat(BINS as u32 - 1))
+    };
     // Every axis binned in one pass; chunks binned in parallel and their bins merged (min, max
     // and counts: the same bins in any order).
     let bins = items
@@ -86,13 +117,16 @@ pub(super) fn sah_cut(items: &mut [Item]) -> usize {
         .map(|chunk| {
             let mut bins = [[Bin::EMPTY; BINS]; 3];
             for item in chunk {
+                let c = item.centre();
                 let one = Bin {
-                    lo: item.lo,
-                    hi: item.hi,
+                    lo: item.lo.into(),
+                    hi: item.hi.into(),
+                    centres: Centres { lo: c, hi: c },
                     count: 1,
                 };
+                let k = bins_of(item);
                 for axis in (0..3).filter(|&axis| active[axis]) {
-                    let bin = &mut bins[axis][bin_of(axis, item)];
+                    let bin = &mut bins[axis][k[axis] as usize];
                     *bin = bin.add(one);
                 }
             }
@@ -107,7 +141,7 @@ pub(super) fn sah_cut(items: &mut [Item]) -> usize {
                 a
             },
         );
-    let mut best: Option<(f64, usize, usize)> = None;
+    let mut best: Option<(f64, usize, usize, Centres, Centres)> = None;
     for (axis, bins) in bins.iter().enumerate().filter(|(axis, _)| active[*axis]) {
         // right[k]: bins k.. together.
         let mut right = [Bin::EMPTY; BINS];
@@ -123,14 +157,20 @@ pub(super) fn sah_cut(items: &mut [Item]) -> usize {
                 continue;
             }
             let cost = left.cost() + right[k].cost();
-            if best.is_none_or(|(c, _, _)| cost < c) {
-                best = Some((cost, axis, k));
+            if best.is_none_or(|(c, ..)| cost < c) {
+                best = Some((cost, axis, k, left.centres, right[k].centres));
             }
         }
     }
     match best {
-        Some((_, axis, k)) => partition(items, |item| bin_of(axis, item) < k),
-        None => median_cut(items, (hi - lo).max_position()),
+        Some((_, axis, k, left, right)) => {
+            let mid = partition(items, |item| (bins_of(item)[axis] as usize) < k);
+            (mid, left, right)
+        }
+        None => {
+            let mid = median_cut(items, (hi - lo).max_position());
+            (mid, Centres::of(&items[..mid]), Centres::of(&items[mid..]))
+        }
     }
 }
 
@@ -179,8 +219,11 @@ mod tests {
                 item(x, 0.01, i)
             })
             .collect();
-        let mid = sah_cut(&mut items);
+        let centres = Centres::of(&items);
+        let (mid, left, right) = sah_cut(&mut items, centres);
         assert_eq!(mid, 300);
+        assert_eq!(left, Centres::of(&items[..mid]));
+        assert_eq!(right, Centres::of(&items[mid..]));
         assert!(items[..mid].iter().all(|it| it.lo.x < 5.0));
         assert!(items[mid..].iter().all(|it| it.lo.x > 5.0));
     }
@@ -188,7 +231,11 @@ mod tests {
     #[test]
     fn boxes_with_one_centre_are_cut_in_half() {
         let mut items: Vec<Item> = (0..9).map(|i| item(1.0, 1.0, 8 - i)).collect();
-        assert_eq!(sah_cut(&mut items), 4);
+        let centres = Centres::of(&items);
+        let (mid, left, right) = sah_cut(&mut items, centres);
+        assert_eq!(mid, 4);
+        assert_eq!(left, Centres::of(&items[..mid]));
+        assert_eq!(right, Centres::of(&items[mid..]));
         let mut ids: Vec<u32> = items.iter().map(|it| it.id).collect();
         ids.sort();
         assert_eq!(ids, (0..9).collect::<Vec<_>>());
