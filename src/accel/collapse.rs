@@ -6,11 +6,12 @@
 //! children of a wide node (i = 0: one child, a leaf of ≤ `leaf_max` triangles at cost
 //! 0.3·count·A(n) or an interior node at A(n) plus its best 8-way split; i ≥ 1: the cheaper of
 //! C(n, i − 1) and the best C(left, k) + C(right, i − 1 − k)), A being the half surface area.
-//! Top down, each wide node then takes the children the choices name. Where obvhs keeps a
-//! 7-slot table of costs and choices (56 bytes per binary node, allocated per tree), the costs
-//! here travel up the recursion and only the choices stay, one byte per slot, in a buffer kept
-//! from tree to tree. Ties, sums and comparisons are taken in obvhs's order, so that the trees
-//! are the same (`tests`).
+//! Top down, each wide node then takes the children the choices name. obvhs walks the tree
+//! depth first twice, waiting on one node's load after another, with a 56-byte table per binary
+//! node allocated per tree; here the bottom-up pass reads the nodes in memory order, the top-down
+//! pass asks for the nodes it will visit before it needs them, and the costs (32 bytes a node)
+//! and choices (7) live in buffers kept from tree to tree. Ties, sums and comparisons are taken
+//! in obvhs's order, so that the trees are the same (`tests`).
 
 use glam::{UVec3, Vec3A};
 use obvhs::aabb::Aabb;
@@ -108,6 +109,8 @@ impl NodeGrid {
 pub(super) struct Collapser {
     /// Per binary node, the choice of each slot.
     choices: Vec<[Choice; SLOTS]>,
+    /// Per binary node, its subtree's costs.
+    subtrees: Vec<Subtree>,
 }
 
 impl Collapser {
@@ -121,7 +124,9 @@ impl Collapser {
         self.choices.clear();
         self.choices
             .resize(bvh2.nodes.len(), [Choice::default(); SLOTS]);
-        choose(bvh2, &mut self.choices, 0, leaf_max);
+        self.subtrees.clear();
+        self.subtrees.resize(bvh2.nodes.len(), Subtree::default());
+        choose(bvh2, &mut self.choices, &mut self.subtrees, leaf_max);
         let mut out = Emitter {
             bvh2,
             choices: &self.choices,
@@ -140,37 +145,64 @@ impl Collapser {
     }
 }
 
-/// The bottom-up pass over the subtree at `node`: records its slots' choices and returns their
-/// costs and the subtree's triangle count.
-fn choose(
+/// A binary subtree's costs per slot and its triangle count.
+#[derive(Clone, Copy, Default)]
+struct Subtree {
+    cost: [f32; SLOTS],
+    count: u32,
+}
+
+/// How far ahead (in nodes) the bottom-up scan asks for the children it will read.
+const LOOKAHEAD: usize = 16;
+
+/// The bottom-up pass: every binary node's [`Subtree`] and choices. Nodes are taken from the
+/// last index down, which reads the tree in memory order: obvhs's builder places children after
+/// their parent, so their values are ready when the parent is reached, and the few nodes that
+/// reinsertion moved below their parent are evaluated on demand (`evaluate`). Every read of a
+/// child then depends on the loop alone, not on the previous read, so the misses overlap (a
+/// depth-first walk waits on each node in turn).
+fn choose(bvh2: &Bvh2, choices: &mut [[Choice; SLOTS]], subtrees: &mut [Subtree], leaf_max: u32) {
+    let nodes = &bvh2.nodes;
+    for i in (0..nodes.len()).rev() {
+        if let Some(ahead) = i.checked_sub(LOOKAHEAD).map(|k| &nodes[k]) {
+            if !ahead.is_leaf() {
+                prefetch(&subtrees[ahead.first_index as usize]);
+            }
+        }
+        subtrees[i] = evaluate(bvh2, choices, subtrees, i, i, leaf_max);
+    }
+}
+
+/// Binary node `node`'s [`Subtree`], recording its choices; the values of nodes above index
+/// `scanned` are read as the scan left them, the others evaluated here first.
+fn evaluate(
     bvh2: &Bvh2,
     choices: &mut [[Choice; SLOTS]],
+    subtrees: &mut [Subtree],
     node: usize,
+    scanned: usize,
     leaf_max: u32,
-) -> ([f32; SLOTS], u32) {
+) -> Subtree {
     let n = &bvh2.nodes[node];
     let area = n.aabb().half_area();
     if n.is_leaf() {
         debug_assert_eq!(n.prim_count, 1, "the binary tree has a triangle per leaf");
         choices[node] = [Choice::new(Choice::LEAF, 0, 0); SLOTS];
-        return (
-            [area * n.prim_count as f32 * PRIM_COST; SLOTS],
-            n.prim_count,
-        );
+        return Subtree {
+            cost: [area * n.prim_count as f32 * PRIM_COST; SLOTS],
+            count: n.prim_count,
+        };
     }
     let first = n.first_index as usize;
-    // The walk chases pointers through a tree laid out in no particular order: the
-    // grandchildren are asked for now, so that their loads overlap the left subtree's work.
-    for child in &bvh2.nodes[first..first + 2] {
-        if !child.is_leaf() {
-            let grandchild = child.first_index as usize;
-            prefetch(&bvh2.nodes[grandchild]);
-            prefetch(&bvh2.nodes[grandchild + 1]);
+    let mut halves = [Subtree::default(); 2];
+    for (half, child) in halves.iter_mut().zip(first..) {
+        if child <= scanned {
+            subtrees[child] = evaluate(bvh2, choices, subtrees, child, scanned, leaf_max);
         }
+        *half = subtrees[child];
     }
-    let (left, left_count) = choose(bvh2, choices, first, leaf_max);
-    let (right, right_count) = choose(bvh2, choices, first + 1, leaf_max);
-    let count = left_count + right_count;
+    let [Subtree { cost: left, .. }, Subtree { cost: right, .. }] = halves;
+    let count = halves[0].count + halves[1].count;
     let mut cost = [0.0; SLOTS];
     let mut chosen = [Choice::default(); SLOTS];
 
@@ -207,7 +239,7 @@ fn choose(
         }
     }
     choices[node] = chosen;
-    (cost, count)
+    Subtree { cost, count }
 }
 
 /// The top-down pass: writes wide nodes and leaf primitive lists in obvhs's order.
@@ -228,6 +260,21 @@ impl Emitter<'_> {
         let mut children = [EMPTY; WIDTH];
         let mut count = 0;
         self.gather(node, 0, &mut children, &mut count);
+        // The children's nodes and, once those are in, their own children are asked for ahead
+        // of use: the leaves' triangles and the interior children's wide nodes come later.
+        for &child in &children[..count] {
+            prefetch(&self.bvh2.nodes[child as usize]);
+        }
+        for &child in &children[..count] {
+            let n = &self.bvh2.nodes[child as usize];
+            if !n.is_leaf() {
+                let first = n.first_index as usize;
+                prefetch(&self.bvh2.nodes[first]);
+                prefetch(&self.bvh2.nodes[first + 1]);
+                prefetch(&self.choices[first]);
+                prefetch(&self.choices[first + 1]);
+            }
+        }
         if self.ordered {
             order_by_octant(self.bvh2, &node_box, &mut children, count);
         }
