@@ -29,11 +29,13 @@ use obvhs::triangle::Triangle as BvhTriangle;
 use obvhs::BvhBuildParams;
 use rayon::prelude::*;
 
+use crate::sampling::prefetch::prefetch;
 use crate::scene::memory::BVH_PARTS_AT_ONCE;
 use crate::scene::Scene;
 
 use super::collapse::{Collapser, NodeGrid};
 use super::cut::{sah_cut, Centres, Item};
+use super::GATHER_AHEAD;
 
 /// Up to this many triangles the BVH is built with obvhs's most thorough preset (pre-splitting,
 /// reinsertion over all nodes); larger scenes use the medium preset, whose build time stays near
@@ -132,10 +134,12 @@ impl PartBuilder {
     fn build(&mut self, scene: &Scene, ids: &[u32], ordered: bool) -> CwBvh {
         let params = BvhBuildParams::medium_build();
         self.boxes.clear();
-        self.boxes.extend(
-            ids.iter()
-                .map(|&i| bvh_triangle(scene.triangles[i as usize].positions).aabb()),
-        );
+        self.boxes.extend(ids.iter().enumerate().map(|(k, &i)| {
+            if let Some(&ahead) = ids.get(k + GATHER_AHEAD) {
+                prefetch(&scene.triangles[ahead as usize]);
+            }
+            bvh_triangle(scene.triangles[i as usize].positions).aabb()
+        }));
         self.ploc.build_with_bvh(
             &mut self.bvh2,
             params.ploc_search_distance,
