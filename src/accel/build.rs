@@ -99,7 +99,7 @@ pub(super) fn build_bvh(scene: &Scene, part_max: usize, ordered: bool) -> CwBvh 
         .collect();
     let centres = Centres::of(&items);
     let plan = Plan::cut(&mut items, centres, 0, part_max.max(1));
-    let ids: Vec<u32> = items.iter().map(|c| c.id).collect();
+    let ids: Vec<u32> = items.par_iter().map(|c| c.id).collect();
     drop(items);
     match plan.build(scene, &ids, ordered) {
         Built::Part(bvh) => bvh,
