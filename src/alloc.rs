@@ -299,29 +299,53 @@ mod tests {
         }
     }
 
+    /// Maps an inaccessible page at `at` unless something is mapped there already, and says
+    /// whether it did. Other tests run in parallel and allocate, so the page after a block
+    /// may be taken by the time the test asks for it.
+    ///
+    /// # Safety
+    /// `at` is page-aligned; the caller unmaps the page when this returns true.
+    unsafe fn guard_page(at: *mut u8) -> bool {
+        let got = libc::mmap(
+            at.cast(),
+            PAGE,
+            libc::PROT_NONE,
+            libc::MAP_PRIVATE | libc::MAP_ANONYMOUS | libc::MAP_FIXED_NOREPLACE,
+            -1,
+            0,
+        );
+        if got == at.cast() {
+            return true;
+        }
+        let error = std::io::Error::last_os_error();
+        assert!(
+            got == libc::MAP_FAILED && error.raw_os_error() == Some(libc::EEXIST),
+            "MAP_FIXED_NOREPLACE at {at:?}: got {got:?}, {error}"
+        );
+        false
+    }
+
     #[test]
     fn a_block_that_cannot_grow_in_place_moves_to_a_new_huge_page_boundary_with_its_contents() {
         let a = HugePageAllocator;
         let layout = Layout::from_size_align(HUGE_MIN + 3 * PAGE, 8).unwrap();
         let len = mapped_len(layout.size());
-        // SAFETY: the guard page is mapped only where nothing is (NOREPLACE) and unmapped at the
-        // end; the block is freed with its layout.
+        // SAFETY: guard pages are mapped only where nothing is (NOREPLACE) and unmapped at the
+        // end; every block is freed with its layout.
         unsafe {
-            let p = a.alloc(layout);
+            // A block with a guard page of ours right after it (blocks whose next page another
+            // test took meanwhile are set aside, as that mapping may go away at any time).
+            let mut set_aside = Vec::new();
+            let p = loop {
+                let p = a.alloc(layout);
+                if guard_page(p.add(len)) {
+                    break p;
+                }
+                set_aside.push(p);
+                assert!(set_aside.len() < 16, "no free page after 16 blocks");
+            };
+            let guard = p.add(len);
             fill(p, layout.size(), 5);
-            let guard = libc::mmap(
-                p.add(len).cast(),
-                PAGE,
-                libc::PROT_NONE,
-                libc::MAP_PRIVATE | libc::MAP_ANONYMOUS | libc::MAP_FIXED_NOREPLACE,
-                -1,
-                0,
-            );
-            assert_eq!(
-                guard,
-                p.add(len).cast(),
-                "a guard page right after the block"
-            );
             let grown = a.realloc(p, layout, 4 * HUGE_MIN);
             assert!(!grown.is_null());
             assert_ne!(grown, p, "moved: the guard page is in the way");
@@ -330,21 +354,11 @@ mod tests {
             let rest = std::slice::from_raw_parts(grown.add(len), 4 * HUGE_MIN - len);
             assert!(rest.iter().all(|&b| b == 0), "the new part is fresh");
             // The moved block is now two mappings (the moved pages and the fresh part): grown
-            // again past a second guard page, it moves (or is copied) once more.
+            // again past a second guard page (or another test's mapping), it moves or is
+            // copied, or grows in place if that mapping went away.
             fill(grown, 4 * HUGE_MIN, 6);
-            let guard2 = libc::mmap(
-                grown.add(4 * HUGE_MIN).cast(),
-                PAGE,
-                libc::PROT_NONE,
-                libc::MAP_PRIVATE | libc::MAP_ANONYMOUS | libc::MAP_FIXED_NOREPLACE,
-                -1,
-                0,
-            );
-            assert_eq!(
-                guard2,
-                grown.add(4 * HUGE_MIN).cast(),
-                "a second guard page"
-            );
+            let guard2 = grown.add(4 * HUGE_MIN);
+            let guarded2 = guard_page(guard2);
             let layout = Layout::from_size_align(4 * HUGE_MIN, 8).unwrap();
             let again = a.realloc(grown, layout, 7 * HUGE_MIN);
             assert!(!again.is_null());
@@ -360,8 +374,13 @@ mod tests {
             assert_eq!(small, again, "a shrink stays in place");
             assert!(holds(small, 3 * HUGE_MIN, 6), "contents kept by the shrink");
             a.dealloc(small, Layout::from_size_align(3 * HUGE_MIN, 8).unwrap());
-            libc::munmap(guard, PAGE);
-            libc::munmap(guard2, PAGE);
+            libc::munmap(guard.cast(), PAGE);
+            if guarded2 {
+                libc::munmap(guard2.cast(), PAGE);
+            }
+            for q in set_aside {
+                a.dealloc(q, Layout::from_size_align(HUGE_MIN + 3 * PAGE, 8).unwrap());
+            }
         }
     }
 
