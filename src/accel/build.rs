@@ -33,7 +33,7 @@ use crate::sampling::prefetch::prefetch;
 use crate::scene::memory::BVH_PARTS_AT_ONCE;
 use crate::scene::Scene;
 
-use super::collapse::{Collapser, NodeGrid};
+use super::collapse::{octant_slots, Collapser, NodeGrid};
 use super::cut::{sah_cut, Centres, Item};
 use super::GATHER_AHEAD;
 
@@ -306,13 +306,14 @@ impl Joiner {
         };
         let boxes: Vec<Aabb> = children.iter().map(Built::bounds).collect();
         let node_box = boxes.iter().fold(Aabb::empty(), |a, b| a.union(b));
-        let slots = assign_slots(&node_box, &boxes);
+        let centres: Vec<Vec3A> = boxes.iter().map(Aabb::center).collect();
+        let slots = &octant_slots(node_box.center(), &centres)[..centres.len()];
         // The children's roots lie side by side from `base`, in slot order.
         let base = self.nodes.len();
         self.nodes
             .resize(base + children.len(), CwBvhNode::default());
-        self.nodes[at] = join_node(&node_box, &boxes, &slots, base as u32);
-        for (child, slot) in children.into_iter().zip(&slots) {
+        self.nodes[at] = join_node(&node_box, &boxes, slots, base as u32);
+        for (child, slot) in children.into_iter().zip(slots) {
             let rank = slots.iter().filter(|&s| s < slot).count();
             self.place(child, base + rank);
         }
@@ -336,35 +337,6 @@ impl Joiner {
             .extend_from_slice(&part.primitive_indices);
         part.total_aabb
     }
-}
-
-/// Octant directions of the eight child slots: slot s points to −x, −y, −z where its bits
-/// 4, 2, 1 are set (obvhs's convention, from which its walk derives the visiting order).
-fn slot_direction(s: usize) -> Vec3A {
-    let sign = |bit: usize| if s & bit != 0 { -1.0 } else { 1.0 };
-    Vec3A::new(sign(4), sign(2), sign(1))
-}
-
-/// A slot per child, so that children lying towards a slot's octant get that slot: pairs
-/// (child, slot) taken greedily by the smallest (child centre − node centre)·direction.
-fn assign_slots(node_box: &Aabb, boxes: &[Aabb]) -> Vec<usize> {
-    let centre = node_box.center();
-    let mut pairs: Vec<(f32, usize, usize)> = (0..boxes.len())
-        .flat_map(|c| {
-            let v = boxes[c].center() - centre;
-            (0..WIDTH).map(move |s| (slot_direction(s).dot(v), c, s))
-        })
-        .collect();
-    pairs.sort_by(|a, b| a.0.total_cmp(&b.0).then((a.1, a.2).cmp(&(b.1, b.2))));
-    let mut slot_of = vec![usize::MAX; boxes.len()];
-    let mut taken = [false; WIDTH];
-    for (_, c, s) in pairs {
-        if slot_of[c] == usize::MAX && !taken[s] {
-            slot_of[c] = s;
-            taken[s] = true;
-        }
-    }
-    slot_of
 }
 
 /// A CWBVH node whose children are all interior nodes, child c in slot `slots[c]` with box

@@ -32,7 +32,7 @@ const EMPTY: u32 = u32::MAX;
 /// What slot i of a binary node chose, in a byte: how it is represented (bits 6–7) and, when it
 /// is spread over several children, over how many slots of its left (bits 0–2) and right
 /// (bits 3–5) child.
-#[derive(Clone, Copy, Default, PartialEq)]
+#[derive(Clone, Copy, Default)]
 struct Choice(u8);
 
 impl Choice {
@@ -350,15 +350,29 @@ impl Emitter<'_> {
     }
 }
 
-/// Moves the first `count` children into octant slots: slot s points to −x, −y, −z where its
-/// bits 4, 2, 1 are set, and the pairs (child, free slot) are taken greedily by the smallest
-/// (child centre − node centre)·direction, children and slots scanned in order.
+/// Moves the first `count` children into their [`octant_slots`].
 fn order_by_octant(bvh2: &Bvh2, node_box: &Aabb, children: &mut [u32; WIDTH], count: usize) {
-    let centre = node_box.center();
+    let mut centres = [Vec3A::ZERO; WIDTH];
+    for (centre, &child) in centres.iter_mut().zip(&children[..count]) {
+        *centre = bvh2.nodes[child as usize].aabb().center();
+    }
+    let slot_of = octant_slots(node_box.center(), &centres[..count]);
+    let given = std::mem::replace(children, [EMPTY; WIDTH]);
+    for c in 0..count {
+        children[slot_of[c]] = given[c];
+    }
+}
+
+/// A slot for each of (at most eight) children with box centres `centres` in a node centred at
+/// `centre`, so that children lying towards a slot's octant get that slot (obvhs's convention,
+/// from which its walk derives the visiting order): slot s points to −x, −y, −z where its bits
+/// 4, 2, 1 are set, and the pairs (child, free slot) are taken greedily by the smallest
+/// (child centre − node centre)·direction, ties to the first child, then the first slot.
+pub(super) fn octant_slots(centre: Vec3A, centres: &[Vec3A]) -> [usize; WIDTH] {
     let sign = |s: usize, bit: usize| if s & bit != 0 { -1.0 } else { 1.0 };
     let mut cost = [[0.0f32; WIDTH]; WIDTH];
-    for (c, row) in cost.iter_mut().enumerate().take(count) {
-        let v = bvh2.nodes[children[c] as usize].aabb().center() - centre;
+    for (row, &c) in cost.iter_mut().zip(centres) {
+        let v = c - centre;
         for (s, slot_cost) in row.iter_mut().enumerate() {
             *slot_cost = Vec3A::new(sign(s, 4), sign(s, 2), sign(s, 1)).dot(v);
         }
@@ -367,7 +381,7 @@ fn order_by_octant(bvh2: &Bvh2, node_box: &Aabb, children: &mut [u32; WIDTH], co
     let mut taken = [false; WIDTH];
     loop {
         let mut best = (f32::MAX, usize::MAX, usize::MAX);
-        for c in (0..count).filter(|&c| slot_of[c] == usize::MAX) {
+        for c in (0..centres.len()).filter(|&c| slot_of[c] == usize::MAX) {
             for s in (0..WIDTH).filter(|&s| !taken[s]) {
                 if cost[c][s] < best.0 {
                     best = (cost[c][s], c, s);
@@ -376,14 +390,10 @@ fn order_by_octant(bvh2: &Bvh2, node_box: &Aabb, children: &mut [u32; WIDTH], co
         }
         let (_, c, s) = best;
         if c == usize::MAX {
-            break;
+            return slot_of;
         }
         slot_of[c] = s;
         taken[s] = true;
-    }
-    let given = std::mem::replace(children, [EMPTY; WIDTH]);
-    for c in 0..count {
-        children[slot_of[c]] = given[c];
     }
 }
 

@@ -12,8 +12,8 @@
 //! not alive at once (the two builds run one after the other, the larger first: see
 //! [`lights_before_geometry`]), so the estimate errs high: against the peak RSS
 //! (`/usr/bin/time -f %M`) of `render --width 64 --height 48 --spp 1 --selector bvh` (the
-//! selector that needs most) it gives 17.0 MB for scenes/town.glb (13.1 measured) and 818 MB for
-//! `gen city --lights 1000000` (432; 393 with `--selector power`); an untextured scene does not
+//! selector that needs most) it gives 17.0 MB for scenes/town.glb (12.6 measured) and 818 MB for
+//! `gen city --lights 1000000` (428; 389 with `--selector power`); an untextured scene does not
 //! keep the 24 B a triangle of texture coordinates that the estimate counts.
 
 use std::collections::HashSet;
