@@ -106,11 +106,13 @@ impl NearField {
     /// The table of `nodes`' root (`reach`: their lanes' [`Reach`]), on a grid over the box of
     /// the lights' `points` widened on each side by [`MARGIN`] of its size along that axis (of
     /// its largest side along an axis without extent); `None` for an empty tree or lights all
-    /// at one point.
+    /// at one point. `avx2` (true only where the CPU has AVX2 and FMA) sums with the copy
+    /// compiled for them, which gives the same table.
     pub(super) fn build(
         nodes: &[WideNode],
         reach: &[Reach],
         points: &[PowerPoint],
+        avx2: bool,
     ) -> Option<NearField> {
         if nodes.is_empty() {
             return None;
@@ -151,7 +153,7 @@ impl NearField {
                     i / (dims[0] * dims[1]),
                 ];
                 let x = lo + cell * Vec3::from_array(at.map(|a| a as f32));
-                let sums = sums.node_sums(0, x);
+                let sums = sums.at(x, avx2);
                 (sums.plain_codes(), sums.share_codes())
             })
             .unzip();
@@ -281,9 +283,25 @@ pub(super) fn floor(cell: Vec3) -> f32 {
     0.25 * cell.max_element() * cell.max_element()
 }
 
-/// Lane `k`'s centre in `field` (a decoded node's centres or power centres).
-fn centre(field: &[[f32; LANES]; 3], k: usize) -> Vec3 {
-    Vec3::new(field[0][k], field[1][k], field[2][k])
+/// T and D at x before they are coded (see the module header) over `nodes` and their lanes'
+/// `reach`, for a table of grid cells `cell`, summed by the portable copy or, with `avx2`, the
+/// AVX2 one.
+#[cfg(test)]
+pub(super) fn sums_at(
+    nodes: &[WideNode],
+    reach: &[Reach],
+    cell: Vec3,
+    x: Vec3,
+    avx2: bool,
+) -> ([f32; LANES], [[f32; LANES]; 6]) {
+    let sums = LaneSums {
+        nodes,
+        reach,
+        floor: floor(cell),
+        small: SMALL * cell.max_element(),
+    };
+    let sums = sums.at(x, avx2);
+    (sums.plain, sums.toward)
 }
 
 /// What [`LaneSums::node_sums`] reads: the tree, each lane's R ([`Reach`]), ε and the R up to
@@ -296,56 +314,102 @@ struct LaneSums<'a> {
 }
 
 impl LaneSums<'_> {
-    /// T and D (see the module header) over the lights of each lane of node `index` at x, lanes
-    /// far from x or small taken whole at their power centre. The tests and whole terms of the
-    /// eight lanes are computed together (array by array, so they vectorise); only the lanes to
-    /// open recurse, and each sums its child's lanes in lane order.
-    fn node_sums(&self, index: usize, x: Vec3) -> Sums {
+    /// T and D (see the module header) at grid point x, from the root down; with `avx2` (which
+    /// only a CPU with AVX2 and FMA may ask for) by the copy compiled for it, the same bits.
+    fn at(&self, x: Vec3, avx2: bool) -> Sums {
+        let mut sums = Sums::default();
+        #[cfg(target_arch = "x86_64")]
+        if avx2 {
+            // SAFETY: the caller asks for AVX2 only where the CPU reported AVX2 and FMA.
+            unsafe { self.node_sums_avx2(0, x, &mut sums) };
+            return sums;
+        }
+        let _ = avx2;
+        self.node_sums(0, x, &mut sums);
+        sums
+    }
+
+    /// [`node_sums_with`](Self::node_sums_with) recursing into itself.
+    fn node_sums(&self, index: usize, x: Vec3, sums: &mut Sums) {
+        self.node_sums_with(index, x, sums, |child, sums| self.node_sums(child, x, sums));
+    }
+
+    /// [`node_sums`](Self::node_sums) compiled for AVX2: the eight lanes in one register. The
+    /// same operations lane by lane (nothing is contracted into fused multiply-adds), so the
+    /// same bits.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn node_sums_avx2(&self, index: usize, x: Vec3, sums: &mut Sums) {
+        self.node_sums_with(index, x, sums, |child, sums| {
+            // SAFETY: reached only from `node_sums_avx2`, which the CPU can run.
+            unsafe { self.node_sums_avx2(child, x, sums) }
+        });
+    }
+
+    /// Writes into `sums` T and D (see the module header) over the lights of each lane of node
+    /// `index` at x, lanes far from x or small taken whole at their power centre. The tests and
+    /// whole terms of the eight lanes are computed together (array by array, so they
+    /// vectorise); only the lanes to open recurse (`child_sums` of their node), and each sums
+    /// its child's lanes in lane order.
+    #[inline(always)]
+    fn node_sums_with(
+        &self,
+        index: usize,
+        x: Vec3,
+        sums: &mut Sums,
+        child_sums: impl Fn(usize, &mut Sums),
+    ) {
         let wide = &self.nodes[index];
         let node = Decoded::of(wide);
         let reach = &self.reach[index];
-        let mut sums = Sums::default();
-        let mut open = [false; LANES];
-        for k in 0..LANES {
-            let power_centre = centre(&node.power_centre, k);
-            let far = (x.distance(centre(&node.centre, k)) > OPEN * node.radius[k])
-                | (reach[k] <= self.small)
-                | (x.distance(power_centre) > OPEN * reach[k]);
-            let phi = node.signed_phi[k].abs();
-            sums.plain[k] = phi / x.distance_squared(power_centre).max(self.floor);
-            open[k] = !far & (phi != 0.0) & (wide.interior & (1 << k) != 0);
+        // x − c and x − c_Φ, axis by axis (their squares are those of c − x and c_Φ − x), in
+        // plain loops: an array `map` left a copy of the arrays behind.
+        let (mut dc, mut dp) = ([[0.0f32; LANES]; 3], [[0.0f32; LANES]; 3]);
+        for a in 0..3 {
+            for k in 0..LANES {
+                dc[a][k] = x[a] - node.centre[a][k];
+                dp[a][k] = x[a] - node.power_centre[a][k];
+            }
         }
-        // ω, the unit vector from x to the power centre, array by array (so that it vectorises);
-        // ω = 0 for a power centre at x: its term counts in T only.
-        let to: [[f32; LANES]; 3] =
-            std::array::from_fn(|a| std::array::from_fn(|k| node.power_centre[a][k] - x[a]));
+        let mut open = [false; LANES];
         let mut inverse = [0.0f32; LANES];
-        for (k, inverse) in inverse.iter_mut().enumerate() {
-            let length = (to[0][k] * to[0][k] + to[1][k] * to[1][k] + to[2][k] * to[2][k]).sqrt();
-            let recip = 1.0 / length;
-            *inverse = if recip.is_finite() && recip > 0.0 {
+        for k in 0..LANES {
+            // |x − c|² as glam's `distance_squared` adds it, x then y then z.
+            let centre_sq = dc[0][k] * dc[0][k] + dc[1][k] * dc[1][k] + dc[2][k] * dc[2][k];
+            let power_sq = dp[0][k] * dp[0][k] + dp[1][k] * dp[1][k] + dp[2][k] * dp[2][k];
+            let power_distance = power_sq.sqrt();
+            let far = (centre_sq.sqrt() > OPEN * node.radius[k])
+                | (reach[k] <= self.small)
+                | (power_distance > OPEN * reach[k]);
+            let phi = node.signed_phi[k].abs();
+            sums.plain[k] = phi / power_sq.max(self.floor);
+            open[k] = !far & (phi != 0.0) & (wide.interior & (1 << k) != 0);
+            // 1 / |x − c_Φ| (0 for a power centre at x: its term counts in T only).
+            let recip = 1.0 / power_distance;
+            inverse[k] = if recip.is_finite() && recip > 0.0 {
                 recip
             } else {
                 0.0
             };
         }
-        for (a, to) in to.iter().enumerate() {
+        // ω, the unit vector from x to the power centre: −(x − c_Φ) / |x − c_Φ|.
+        for (a, from) in dp.iter().enumerate() {
             for k in 0..LANES {
-                let omega = to[k] * inverse[k];
+                let omega = -from[k] * inverse[k];
                 sums.toward[2 * a][k] = sums.plain[k] * omega.max(0.0);
                 sums.toward[2 * a + 1][k] = sums.plain[k] * (-omega).max(0.0);
             }
         }
         for k in 0..LANES {
             if open[k] {
-                let child = self.node_sums(wide.child(k) as usize, x);
+                let mut child = Sums::default();
+                child_sums(wide.child(k) as usize, &mut child);
                 sums.plain[k] = child.plain.iter().sum();
                 for (toward, child) in sums.toward.iter_mut().zip(&child.toward) {
                     toward[k] = child.iter().sum();
                 }
             }
         }
-        sums
     }
 }
 

@@ -70,12 +70,13 @@ impl BinaryTree {
     /// The traversed tree: the binary tree collapsed into wide nodes.
     pub fn collapse(&self) -> LightBvh {
         let (nodes, reach) = collapse(&self.nodes, &self.grid, &self.points);
+        let avx2 = has_avx2_fma();
         LightBvh {
-            near: NearField::build(&nodes, &reach, &self.points),
+            near: NearField::build(&nodes, &reach, &self.points, avx2),
             top: nodes.iter().take(DECODED_TOP).map(Decoded::of).collect(),
             nodes,
             lights: self.order.len(),
-            avx2: has_avx2_fma(),
+            avx2,
         }
     }
 }

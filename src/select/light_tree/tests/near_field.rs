@@ -237,3 +237,33 @@ fn each_lanes_reach_bounds_its_lights_distance_from_its_power_centre() {
     );
     assert!(lanes > 3000);
 }
+
+#[test]
+fn the_sums_are_the_same_in_eight_lanes() {
+    if !crate::cpu::has_avx2_fma() {
+        println!("no AVX2 here: only one copy of the sums to compare");
+        return;
+    }
+    let scene = random_scene(&mut Rand::new(29), 3000);
+    let (binary, grid, _, points) = binary_tree(scene.bounds.len(), |i| scene.bounds[i]);
+    let (nodes, reach) = collapse(&binary, &grid, &points);
+    let field = NearField::build(&nodes, &reach, &points, false).expect("a table");
+    let [nx, ny, nz] = field.dims;
+    let mut opened = 0;
+    for point in 0..nx * ny * nz {
+        let at = [point % nx, (point / nx) % ny, point / (nx * ny)];
+        let x = field.lo + field.cell * Vec3::from_array(at.map(|a| a as f32));
+        let [(plain, toward), (plain8, toward8)] =
+            [false, true].map(|avx2| near_field::sums_at(&nodes, &reach, field.cell, x, avx2));
+        assert_eq!(
+            plain.map(f32::to_bits),
+            plain8.map(f32::to_bits),
+            "point {point}"
+        );
+        for (d, d8) in toward.iter().zip(&toward8) {
+            assert_eq!(d.map(f32::to_bits), d8.map(f32::to_bits), "point {point}");
+        }
+        opened += usize::from(plain.iter().any(|&t| t > 0.0));
+    }
+    assert!(opened > 0);
+}
