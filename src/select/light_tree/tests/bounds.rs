@@ -436,3 +436,39 @@ fn lanes_know_their_power_centre_spread_and_power() {
     println!("{checked} lanes checked");
     assert!(checked > 1000);
 }
+
+#[test]
+fn codes_round_to_nearest_as_the_library_does() {
+    let mut rng = Rand::new(31);
+    let mut values = vec![
+        0.0,
+        -0.0,
+        0.5,
+        -0.5,
+        1.5,
+        -1.5,
+        2.5,
+        -2.5,
+        0.49999999999999994,
+        -0.49999999999999994,
+        126.5,
+        -127.5,
+        4503599627370495.5,
+        4503599627370497.0,
+        -9.2e18,
+        f64::MIN_POSITIVE,
+    ];
+    for _ in 0..100_000 {
+        let x = (rng.f64() - 0.5) * 400.0;
+        values.extend([x, x.floor() + 0.5, x.ceil() - 0.5, x.floor()]);
+    }
+    for x in values {
+        let rounded = round_to_nearest(x);
+        assert!(rounded == x.round(), "{x}: {rounded} against {}", x.round());
+    }
+    // Beyond the conversion's range and for non-finite x the codes are the library's.
+    for x in [1e30, -1e30, f64::INFINITY, f64::NEG_INFINITY, f64::NAN] {
+        let code = |r: f64| r.clamp(-127.0, 127.0) as i8;
+        assert_eq!(code(round_to_nearest(x)), code(x.round()), "{x}");
+    }
+}
