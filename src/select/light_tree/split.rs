@@ -245,8 +245,8 @@ pub(super) const TINY_NODE: usize = 4;
 /// run); every distinct cut is tried. `scale` is 1/(Φ · padded area) of the
 /// whole sequence. `inputs` is room for the sides' cost inputs: what it holds
 /// before is never read for a cut that is tried (the entries of cuts not tried
-/// are left as they were, and their costs ignored), so one serves a node's
-/// three axes.
+/// are left as they were, and their costs ignored), so one serves every node
+/// of a build.
 pub(super) fn cheapest_cut(
     n: usize,
     item: impl Fn(usize) -> Side,
@@ -371,8 +371,8 @@ pub(super) struct Split {
 /// Splits `prims` (≥ 2), reordering them so the left part comes first: by
 /// the binned cost, by trying every cut along one axis for small nodes, in
 /// the middle of that order for tiny ones; a median split when the centroids
-/// cannot be separated.
-pub(super) fn choose_split(prims: &mut [Prim], centroids: Aabb) -> Split {
+/// cannot be separated. `inputs` is [`cheapest_cut`]'s room.
+pub(super) fn choose_split(prims: &mut [Prim], centroids: Aabb, inputs: &mut CostInputs) -> Split {
     let median = Split {
         mid: prims.len() / 2,
         left: centroids,
@@ -380,8 +380,8 @@ pub(super) fn choose_split(prims: &mut [Prim], centroids: Aabb) -> Split {
     };
     let split = match prims.len() {
         0..=2 => None,
-        3..=SMALL_NODE => small_split(prims, centroids),
-        _ => binned_split(prims, centroids),
+        3..=SMALL_NODE => small_split(prims, centroids, inputs),
+        _ => binned_split(prims, centroids, inputs),
     };
     split.unwrap_or(median)
 }
@@ -417,7 +417,11 @@ pub(super) fn sample_step(n: usize) -> usize {
 /// Binned split: 12 buckets along each axis, every boundary tried. A node of n ≥
 /// [`SAMPLED_MIN`] lights is binned from every [`sample_step`]-th light only (all are
 /// partitioned).
-pub(super) fn binned_split(prims: &mut [Prim], centroids: Aabb) -> Option<Split> {
+pub(super) fn binned_split(
+    prims: &mut [Prim],
+    centroids: Aabb,
+    inputs: &mut CostInputs,
+) -> Option<Split> {
     let binner = Binner::new(&centroids);
     let mut bins = [[Side::EMPTY; BUCKETS]; 3];
     binner.bin(prims, sample_step(prims.len()), &mut bins);
@@ -426,13 +430,12 @@ pub(super) fn binned_split(prims: &mut [Prim], centroids: Aabb) -> Option<Split>
     row.iter().for_each(|bin| node.add(bin));
     let (kr, pad, scale) = axis_weights(&node);
     let mut best: Option<(f64, usize, usize)> = None;
-    let mut inputs = CostInputs::ZERO;
     for (axis, row) in bins
         .iter()
         .enumerate()
         .filter(|(axis, _)| binner.active[*axis])
     {
-        if let Some((cost, cut)) = cheapest_cut(BUCKETS, |k| row[k], pad, scale, &mut inputs) {
+        if let Some((cost, cut)) = cheapest_cut(BUCKETS, |k| row[k], pad, scale, inputs) {
             let cost = kr[axis] * f64::from(cost);
             if best.is_none_or(|b| cost < b.0) {
                 best = Some((cost, axis, cut));
@@ -452,8 +455,13 @@ pub(super) fn binned_split(prims: &mut [Prim], centroids: Aabb) -> Option<Split>
 /// Split of a small node: its lights sorted by centroid along the axis where
 /// the centroids spread most, then every cut tried, or the middle one for
 /// [`TINY_NODE`]s (trying all three axes cost three times as much and left
-/// `cargo bench --bench selection_quality`'s bvh χ² within 0.3%).
-pub(super) fn small_split(prims: &mut [Prim], centroids: Aabb) -> Option<Split> {
+/// `cargo bench --bench selection_quality`'s bvh χ² within 0.3%). The lights
+/// are reordered only once a cut is found.
+pub(super) fn small_split(
+    prims: &mut [Prim],
+    centroids: Aabb,
+    inputs: &mut CostInputs,
+) -> Option<Split> {
     let n = prims.len();
     let keys: [Vec3A; SMALL_NODE] = std::array::from_fn(|k| {
         prims
@@ -471,24 +479,43 @@ pub(super) fn small_split(prims: &mut [Prim], centroids: Aabb) -> Option<Split> 
     let mid = if n <= TINY_NODE {
         n / 2
     } else {
-        let sides: [Side; SMALL_NODE] =
-            std::array::from_fn(|k| prims.get(k).map_or(Side::EMPTY, Side::of));
+        // Summed in the lights' order, as every node's Φ is.
         let mut node = Side::EMPTY;
-        sides[..n].iter().for_each(|side| node.add(side));
+        prims.iter().for_each(|p| node.push(p));
         let (_, pad, scale) = axis_weights(&node);
-        let mut inputs = CostInputs::ZERO;
-        cheapest_cut(n, |k| sides[usize::from(order[k])], pad, scale, &mut inputs)?.1
+        let item = |k: usize| Side::of(&prims[usize::from(order[k])]);
+        cheapest_cut(n, item, pad, scale, inputs)?.1
     };
-    let mut sorted = [Prim::LEFT_OUT; SMALL_NODE];
-    for (slot, &k) in sorted.iter_mut().zip(&order[..n]) {
-        *slot = prims[usize::from(k)];
-    }
-    prims.copy_from_slice(&sorted[..n]);
+    permute(prims, &order);
     Some(Split {
         mid,
         left: centroids,
         right: centroids,
     })
+}
+
+/// Puts light `order[k]` at position k, k < `prims.len()` (≤ [`SMALL_NODE`]), `order` being
+/// a permutation of those positions: cycle by cycle, each light moved once and one per cycle
+/// held aside (no copy of the whole node).
+fn permute(prims: &mut [Prim], order: &[u8; SMALL_NODE]) {
+    let mut placed = 0u32;
+    for start in 0..prims.len() {
+        if placed & 1 << start != 0 {
+            continue;
+        }
+        let held = prims[start];
+        let mut k = start;
+        loop {
+            placed |= 1 << k;
+            let from = usize::from(order[k]);
+            if from == start {
+                prims[k] = held;
+                break;
+            }
+            prims[k] = prims[from];
+            k = from;
+        }
+    }
 }
 
 /// Positions 0..keys.len() (at most [`SMALL_NODE`]) sorted by `keys[·][axis]`,
