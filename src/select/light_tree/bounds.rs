@@ -3,7 +3,7 @@
 //! `DirectionCone` union for the cones), and the bounding sphere of a box that
 //! the importance in [`super::lanes`] sees.
 
-use glam::{DVec3, Vec3, Vec4};
+use glam::{DVec3, Vec3};
 use std::f64::consts::PI;
 
 use super::*;
@@ -58,23 +58,6 @@ impl LightBounds {
 pub(super) fn bounding_radius(centre: Vec3, half_diagonal_sq: f32) -> f32 {
     let eps = f32::EPSILON;
     half_diagonal_sq.sqrt() * (1.0 + 8.0 * eps) + 4.0 * eps * centre.abs().max_element()
-}
-
-/// sin θ from cos θ for θ ∈ [0, π], in four lanes, written (1 − c)(1 + c) to stay accurate
-/// near c = ±1 (0 for |c| ≥ 1 or NaN).
-#[inline(always)]
-pub(super) fn sin_of(cos: Vec4) -> Vec4 {
-    let sin_sq = (Vec4::ONE - cos) * (Vec4::ONE + cos);
-    Vec4::select(sin_sq.cmpgt(Vec4::ZERO), sin_sq.sqrt(), Vec4::ZERO)
-}
-
-/// cos(α + β) from cos α, cos β and sin β, α, β ∈ [0, π], in four lanes; −1 once α + β ≥ π
-/// (cos α + cos β ≤ 0), and at least −1 (also for a NaN: `_mm_max_ps` gives its second
-/// operand).
-#[inline(always)]
-pub(super) fn cos_sum(cos_a: Vec4, cos_b: Vec4, sin_b: Vec4) -> Vec4 {
-    let sum = (cos_a * cos_b - sin_of(cos_a) * sin_b).max(Vec4::NEG_ONE);
-    Vec4::select((cos_a + cos_b).cmple(Vec4::ZERO), Vec4::NEG_ONE, sum)
 }
 
 /// Angle between two vectors, accurate at small and large angles.

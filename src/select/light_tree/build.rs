@@ -31,11 +31,12 @@ impl<'a> Subtree<'a> {
         let (mut tree, mut centroids) = (self, centroids);
         // (node, its topology, bounds of the half built, whether that is the left)
         let mut pending = Vec::new();
+        let mut inputs = CostInputs::ZERO;
         let mut bounds = loop {
             if tree.prims.len() < PARALLEL_MIN {
                 break tree.build_serial(grid, centroids);
             }
-            let split = choose_split(tree.prims, centroids);
+            let split = choose_split(tree.prims, centroids, &mut inputs);
             let (root, left, right) = tree.split(split.mid);
             let topology = Node::topology(right.base, false);
             if left.prims.len() < PARALLEL_MIN {
@@ -94,6 +95,7 @@ impl<'a> Subtree<'a> {
             base,
             first,
         } = self;
+        let mut inputs = CostInputs::ZERO;
         let mut stack = vec![Task {
             start: 0,
             end: prims.len(),
@@ -106,7 +108,11 @@ impl<'a> Subtree<'a> {
                 nodes[task.node] = Node::topology(light, true);
                 continue;
             }
-            let split = choose_split(&mut prims[task.start..task.end], task.centroids);
+            let split = choose_split(
+                &mut prims[task.start..task.end],
+                task.centroids,
+                &mut inputs,
+            );
             let right = task.node + 2 * split.mid;
             nodes[task.node] = Node::topology(base + right as u32, false);
             stack.push(Task {

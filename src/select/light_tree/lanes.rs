@@ -151,7 +151,7 @@ fn max(a: f32, b: f32) -> f32 {
 }
 
 /// √(1 − c²) for c ∈ [−1, 1] (0 outside, and for NaN): the sine of an angle from its cosine or
-/// the reverse, as `bounds::sin_of` but with 1 − c² from one fused multiply-add (rounded once).
+/// the reverse, as `cost::sin_of` but with 1 − c² from one fused multiply-add (rounded once).
 #[inline(always)]
 fn cofunction(c: f32) -> f32 {
     let square = (-c).mul_add(c, 1.0);
@@ -183,7 +183,7 @@ fn minus(cos_a: f32, sin_a: f32, cos_b: f32, sin_b: f32) -> (f32, f32) {
 }
 
 /// (cos, sin) of min(π, α + β) from those of α and β, α, β ∈ [0, π]: (−1, 0) once α + β ≥ π
-/// (cos α + cos β ≤ 0). `bounds::cos_sum` in pair form, taking sin α as given (the lanes have
+/// (cos α + cos β ≤ 0). `cost::cos_sum` in pair form, taking sin α as given (the lanes have
 /// it already) instead of computing it again.
 #[inline(always)]
 fn plus(cos_a: f32, sin_a: f32, cos_b: f32, sin_b: f32) -> (f32, f32) {

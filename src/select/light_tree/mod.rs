@@ -37,13 +37,14 @@
 //!
 //! Files: `bounds` (LightBounds, cone algebra), `quantise` (grid, cosine and
 //! octahedral codes), `node` (the 32-byte build node), `split` (binned split
-//! choice), `build` (parallel subtree construction), `wide` (8-wide nodes and
-//! the collapse), `small_cut` (the collapse of small subtrees), `lanes` (the
-//! SIMD importance), `near_field` (the root's distance and direction terms from a table),
+//! choice), `cost` (the split cost's orientation term in SIMD lanes), `build`
+//! (parallel subtree construction), `wide` (8-wide nodes and the collapse),
+//! `small_cut` (the collapse of small subtrees), `lanes` (the SIMD importance), `near_field` (the root's distance and direction terms from a table),
 //! `traverse` (LightBvh: build entry, sample, pmf), `tests`.
 
 mod bounds;
 mod build;
+mod cost;
 mod lanes;
 mod near_field;
 mod node;
@@ -56,6 +57,7 @@ mod traverse;
 mod wide;
 
 use build::*;
+use cost::*;
 use lanes::*;
 use near_field::*;
 use node::*;

@@ -30,6 +30,7 @@ struct Fewest {
 /// [`Fewest`] of every binary node of one small subtree (depth-first: node `root + i` at i).
 /// An entry depends on its node's subtree only, so the table of a subtree serves the smaller
 /// subtrees inside it as well: the wide nodes below a small subtree's root reuse its table.
+/// One table is refilled in place from subtree to subtree (returned by value, each was copied).
 pub(super) struct Table {
     root: usize,
     /// Its binary nodes: `root .. root + len`.
@@ -38,23 +39,29 @@ pub(super) struct Table {
 }
 
 impl Table {
-    /// Children before parents, from the subtree's last node back to its root.
-    fn new(binary: &[Node], root: Lane) -> Table {
-        let mut table = Table {
-            root: root.index,
-            len: 2 * root.count - 1,
+    /// A table that covers no subtree.
+    pub(super) fn empty() -> Table {
+        Table {
+            root: usize::MAX,
+            len: 0,
             fewest: [Fewest::default(); 2 * SMALL_SUBTREE - 1],
-        };
+        }
+    }
+
+    /// Makes this the table of `root`'s subtree: children before parents, from the subtree's
+    /// last node back to its root.
+    fn fill(&mut self, binary: &[Node], root: Lane) {
+        (self.root, self.len) = (root.index, 2 * root.count - 1);
         for i in (0..2 * root.count - 1).rev() {
             let index = root.index + i;
-            table.fewest[i] = if binary[index].is_leaf() {
+            self.fewest[i] = if binary[index].is_leaf() {
                 Fewest {
                     nodes: 0,
                     lanes: 1,
                     opened: [false; 2],
                 }
             } else {
-                let (nodes, lanes, opened) = table.best_split(binary, index);
+                let (nodes, lanes, opened) = self.best_split(binary, index);
                 Fewest {
                     nodes,
                     lanes,
@@ -62,7 +69,6 @@ impl Table {
                 }
             };
         }
-        table
     }
 
     /// Whether the subtree of `lane` is within this table's.
@@ -98,19 +104,19 @@ impl Table {
             }
         };
         let first = usize::from(opening_priority(&binary[right]) > opening_priority(&binary[left]));
-        let mut best = (u32::MAX, u8::MAX, [false; 2]);
+        // The order (nodes, lanes, first child kept) as one integer: nodes from bit 16, lanes
+        // (< 256) from bit 1, the flag in bit 0.
+        let mut best = (u64::MAX, [false; 2]);
         for opened in [[true, true], [true, false], [false, true], [false, false]] {
             let (ln, ll) = option(left, opened[0]);
             let (rn, rl) = option(right, opened[1]);
             let (nodes, lanes) = (ln + rn, ll + rl);
-            let key = |n, l, o: [bool; 2]| (n, l, !o[first]);
-            if usize::from(lanes) <= LANES
-                && key(nodes, lanes, opened) < key(best.0, best.1, best.2)
-            {
-                best = (nodes, lanes, opened);
+            let key = u64::from(nodes) << 16 | u64::from(lanes) << 1 | u64::from(!opened[first]);
+            if usize::from(lanes) <= LANES && key < best.0 {
+                best = (key, opened);
             }
         }
-        best
+        ((best.0 >> 16) as u32, (best.0 >> 1) as u8, best.1)
     }
 
     /// Appends to `lanes` (from `used` on) the cut [`best_split`](Self::best_split) chose for
@@ -138,21 +144,21 @@ impl Table {
 /// How many wide nodes the subtree of interior binary node `start` (at most [`SMALL_SUBTREE`]
 /// lights) makes when collapsed by [`small_cut`], its own included: its cut's count, which the
 /// cuts below reach (each is the fewest for its own subtree, the table's subproblem; the lanes
-/// opened afterwards add none).
-pub(super) fn small_count(binary: &[Node], start: Lane) -> usize {
-    Table::new(binary, start).get(start.index).nodes as usize + 1
+/// opened afterwards add none). `table` is refilled with `start`'s.
+pub(super) fn small_count(binary: &[Node], start: Lane, table: &mut Table) -> usize {
+    table.fill(binary, start);
+    table.get(start.index).nodes as usize + 1
 }
 
 /// The lanes of the wide node rooted at interior binary node `start` (at most
 /// [`SMALL_SUBTREE`] lights): the cut with the fewest wide nodes in all, in light-id order;
 /// lanes left over then open, largest [`opening_priority`] first, the interior lanes whose two
-/// children as lanes add no wide node. `cache` holds the table last made, which is reused when
-/// it covers `start` and replaced by `start`'s otherwise.
-pub(super) fn small_cut(binary: &[Node], start: Lane, cache: &mut Option<Table>) -> OpenLanes {
-    if !cache.as_ref().is_some_and(|table| table.covers(start)) {
-        *cache = None;
+/// children as lanes add no wide node. `table` holds the table last made, which is reused when
+/// it covers `start` and refilled with `start`'s otherwise.
+pub(super) fn small_cut(binary: &[Node], start: Lane, table: &mut Table) -> OpenLanes {
+    if !table.covers(start) {
+        table.fill(binary, start);
     }
-    let table = cache.get_or_insert_with(|| Table::new(binary, start));
     let mut lanes = [None; LANES];
     let mut used = 0;
     table.cut(binary, start, &mut lanes, &mut used);

@@ -230,91 +230,6 @@ impl Side {
     }
 }
 
-/// Sides whose costs [`CostInputs::costs`] evaluates together: the prefix and
-/// suffix runs of one axis' cuts.
-const BATCH: usize = 2 * MAX_CUT_ITEMS;
-
-/// What the costs of up to [`BATCH`] sides need, one array per field so that
-/// they are evaluated in SIMD lanes.
-#[derive(Clone, Copy, Debug)]
-pub(super) struct CostInputs {
-    /// Φ · padded surface area, scaled (to at most 1 in a node).
-    pub(super) phi_area: [f32; BATCH],
-    /// |a|², a being the sum of the corners of the box holding the unit axes
-    /// (1 for a single light).
-    pub(super) a_sq: [f32; BATCH],
-    /// The smallest a·w over that box, Σ min(a·lo, a·hi) (1 for a single light).
-    pub(super) a_min: [f32; BATCH],
-    /// Widest θo and θe, as cosines.
-    pub(super) cos_o: [f32; BATCH],
-    pub(super) cos_e: [f32; BATCH],
-}
-
-impl CostInputs {
-    pub(super) const ZERO: CostInputs = CostInputs {
-        phi_area: [0.0; BATCH],
-        a_sq: [0.0; BATCH],
-        a_min: [0.0; BATCH],
-        cos_o: [1.0; BATCH],
-        cos_e: [1.0; BATCH],
-    };
-
-    /// pbrt-v4's split cost of sides `..n` without the axis factor,
-    /// Φ · M_Ω(θo, θe) · surface area (scaled), θo being that of a cone
-    /// holding every light's normal cone: about the direction a, the smallest
-    /// a·w/|a| bounds the axes' angle from a, and the widest θo is added to
-    /// it. Four sides at a time in SIMD lanes; entries from `n` up to the
-    /// next multiple of 4 are unspecified.
-    pub(super) fn costs(&self, n: usize) -> [f32; BATCH] {
-        let mut costs = [0.0; BATCH];
-        for i in (0..n).step_by(4) {
-            let lanes = |field: &[f32; BATCH]| Vec4::from_slice(&field[i..i + 4]);
-            let (a_sq, cos_o) = (lanes(&self.a_sq), lanes(&self.cos_o));
-            let nearest = Vec4::select(
-                a_sq.cmpgt(Vec4::ZERO),
-                (lanes(&self.a_min) / a_sq.sqrt()).clamp(Vec4::NEG_ONE, Vec4::ONE),
-                Vec4::NEG_ONE,
-            );
-            // cos(θ + θo), θ the axes' angle from a.
-            let cos_half = cos_sum(nearest, cos_o, sin_of(cos_o));
-            let cost = lanes(&self.phi_area) * orientation_measure(cos_half, lanes(&self.cos_e));
-            cost.write_to_slice(&mut costs[i..i + 4]);
-        }
-        costs
-    }
-}
-
-/// M_Ω(θo, θe) in four lanes: the integral of the clamped emission bound over
-/// the sphere, 2π(1 − cos θo) + π/2·(2θw sin θo − cos(θo − 2θw) − 2θo sin θo +
-/// cos θo) with θw = min(θo + θe, π); in f32 with an approximate arccosine (it
-/// only ranks splits).
-#[inline(always)]
-pub(super) fn orientation_measure(co: Vec4, ce: Vec4) -> Vec4 {
-    use std::f32::consts::{FRAC_PI_2, PI};
-    let (so, se) = (sin_of(co), sin_of(ce));
-    let theta_o = approx_acos(co);
-    let theta_e = Vec4::select(
-        ce.cmpeq(Vec4::ZERO),
-        Vec4::splat(FRAC_PI_2),
-        approx_acos(ce),
-    );
-    // θw − θo, and cos(θo − 2θw) = cos(θo + 2θe) unless θw = π.
-    let spread = theta_e.min(PI - theta_o);
-    let wraps = (theta_o + theta_e).cmpge(Vec4::splat(PI));
-    let cos_o_2e = co * (2.0 * ce * ce - 1.0) - so * (2.0 * se * ce);
-    let cos_o_2w = Vec4::select(wraps, co, cos_o_2e);
-    2.0 * PI * (1.0 - co) + FRAC_PI_2 * (2.0 * spread * so - cos_o_2w + co)
-}
-
-/// arccos within 7e-5 (Abramowitz & Stegun 4.4.45), in four lanes.
-#[inline(always)]
-pub(super) fn approx_acos(x: Vec4) -> Vec4 {
-    let a = x.abs().min(Vec4::ONE);
-    let poly = 1.570_728_8 + a * (-0.212_114_4 + a * (0.074_261 - 0.018_729_3 * a));
-    let t = (Vec4::ONE - a).sqrt() * poly;
-    Vec4::select(x.cmplt(Vec4::ZERO), std::f32::consts::PI - t, t)
-}
-
 /// Most items [`cheapest_cut`] handles: buckets, or lights of a small node.
 pub(super) const MAX_CUT_ITEMS: usize = 16;
 /// Nodes with at most this many lights try every cut of their lights sorted
@@ -328,21 +243,24 @@ pub(super) const TINY_NODE: usize = 4;
 /// The cheapest cut of a sequence of `n` ≤ [`MAX_CUT_ITEMS`] sets (empty ones
 /// allowed) into two non-empty runs, as (Σ side costs, length of the first
 /// run); every distinct cut is tried. `scale` is 1/(Φ · padded area) of the
-/// whole sequence.
+/// whole sequence. `inputs` is room for the sides' cost inputs: what it holds
+/// before is never read for a cut that is tried (the entries of cuts not tried
+/// are left as they were, and their costs ignored), so one serves every node
+/// of a build.
 pub(super) fn cheapest_cut(
     n: usize,
     item: impl Fn(usize) -> Side,
     pad: f32,
     scale: f64,
+    inputs: &mut CostInputs,
 ) -> Option<(f32, usize)> {
     // Entry k: the first k + 1 items; entry n − 2 + k: items k.. .
-    let mut inputs = CostInputs::ZERO;
     let mut cuts = [false; MAX_CUT_ITEMS];
     let mut suffix = Side::EMPTY;
     for k in (1..n).rev() {
         suffix.add(&item(k));
         if suffix.count > 0 {
-            suffix.cost_inputs(&mut inputs, n - 2 + k, pad, scale);
+            suffix.cost_inputs(inputs, n - 2 + k, pad, scale);
             cuts[k - 1] = true;
         }
     }
@@ -352,7 +270,7 @@ pub(super) fn cheapest_cut(
         prefix.add(&next);
         *cut &= next.count > 0;
         if *cut {
-            prefix.cost_inputs(&mut inputs, k, pad, scale);
+            prefix.cost_inputs(inputs, k, pad, scale);
         }
     }
     let costs = inputs.costs(2 * (n - 1));
@@ -411,25 +329,24 @@ impl Binner {
         x < cut as f32 || x.is_nan()
     }
 
-    /// Bins every `step`-th light (from the first) along every axis, in one pass.
-    /// Alternate lights of those go to two sets of bins, merged at the end, so that a run of
-    /// lights in one bucket is not a chain of updates each waiting for the one before.
-    pub(super) fn bin(&self, prims: &[Prim], step: usize) -> [[Side; BUCKETS]; 3] {
-        let mut even = [[Side::EMPTY; BUCKETS]; 3];
+    /// Bins every `step`-th light (from the first) along every axis, in one pass, into `even`
+    /// (empty bins). Alternate lights of those go to a second set of bins, merged at the end,
+    /// so that a run of lights in one bucket is not a chain of updates each waiting for the one
+    /// before. The bins are filled in place: returned, they were copied (2,880 bytes a node).
+    pub(super) fn bin(&self, prims: &[Prim], step: usize, even: &mut [[Side; BUCKETS]; 3]) {
         let mut odd = [[Side::EMPTY; BUCKETS]; 3];
         let mut at = 0;
         while at + step < prims.len() {
-            self.add(&mut even, &prims[at]);
+            self.add(even, &prims[at]);
             self.add(&mut odd, &prims[at + step]);
             at += 2 * step;
         }
         if at < prims.len() {
-            self.add(&mut even, &prims[at]);
+            self.add(even, &prims[at]);
         }
         for (bin, more) in even.iter_mut().flatten().zip(odd.iter().flatten()) {
             bin.add(more);
         }
-        even
     }
 
     /// Adds one light to its bucket along every axis, active or not: an inactive axis' row is
@@ -454,8 +371,8 @@ pub(super) struct Split {
 /// Splits `prims` (≥ 2), reordering them so the left part comes first: by
 /// the binned cost, by trying every cut along one axis for small nodes, in
 /// the middle of that order for tiny ones; a median split when the centroids
-/// cannot be separated.
-pub(super) fn choose_split(prims: &mut [Prim], centroids: Aabb) -> Split {
+/// cannot be separated. `inputs` is [`cheapest_cut`]'s room.
+pub(super) fn choose_split(prims: &mut [Prim], centroids: Aabb, inputs: &mut CostInputs) -> Split {
     let median = Split {
         mid: prims.len() / 2,
         left: centroids,
@@ -463,8 +380,8 @@ pub(super) fn choose_split(prims: &mut [Prim], centroids: Aabb) -> Split {
     };
     let split = match prims.len() {
         0..=2 => None,
-        3..=SMALL_NODE => small_split(prims, centroids),
-        _ => binned_split(prims, centroids),
+        3..=SMALL_NODE => small_split(prims, centroids, inputs),
+        _ => binned_split(prims, centroids, inputs),
     };
     split.unwrap_or(median)
 }
@@ -500,9 +417,14 @@ pub(super) fn sample_step(n: usize) -> usize {
 /// Binned split: 12 buckets along each axis, every boundary tried. A node of n ≥
 /// [`SAMPLED_MIN`] lights is binned from every [`sample_step`]-th light only (all are
 /// partitioned).
-pub(super) fn binned_split(prims: &mut [Prim], centroids: Aabb) -> Option<Split> {
+pub(super) fn binned_split(
+    prims: &mut [Prim],
+    centroids: Aabb,
+    inputs: &mut CostInputs,
+) -> Option<Split> {
     let binner = Binner::new(&centroids);
-    let bins = binner.bin(prims, sample_step(prims.len()));
+    let mut bins = [[Side::EMPTY; BUCKETS]; 3];
+    binner.bin(prims, sample_step(prims.len()), &mut bins);
     let row = bins.iter().zip(binner.active).find(|(_, a)| *a)?.0;
     let mut node = Side::EMPTY;
     row.iter().for_each(|bin| node.add(bin));
@@ -513,7 +435,7 @@ pub(super) fn binned_split(prims: &mut [Prim], centroids: Aabb) -> Option<Split>
         .enumerate()
         .filter(|(axis, _)| binner.active[*axis])
     {
-        if let Some((cost, cut)) = cheapest_cut(BUCKETS, |k| row[k], pad, scale) {
+        if let Some((cost, cut)) = cheapest_cut(BUCKETS, |k| row[k], pad, scale, inputs) {
             let cost = kr[axis] * f64::from(cost);
             if best.is_none_or(|b| cost < b.0) {
                 best = Some((cost, axis, cut));
@@ -533,8 +455,13 @@ pub(super) fn binned_split(prims: &mut [Prim], centroids: Aabb) -> Option<Split>
 /// Split of a small node: its lights sorted by centroid along the axis where
 /// the centroids spread most, then every cut tried, or the middle one for
 /// [`TINY_NODE`]s (trying all three axes cost three times as much and left
-/// `cargo bench --bench selection_quality`'s bvh χ² within 0.3%).
-pub(super) fn small_split(prims: &mut [Prim], centroids: Aabb) -> Option<Split> {
+/// `cargo bench --bench selection_quality`'s bvh χ² within 0.3%). The lights
+/// are reordered only once a cut is found.
+pub(super) fn small_split(
+    prims: &mut [Prim],
+    centroids: Aabb,
+    inputs: &mut CostInputs,
+) -> Option<Split> {
     let n = prims.len();
     let keys: [Vec3A; SMALL_NODE] = std::array::from_fn(|k| {
         prims
@@ -552,23 +479,43 @@ pub(super) fn small_split(prims: &mut [Prim], centroids: Aabb) -> Option<Split> 
     let mid = if n <= TINY_NODE {
         n / 2
     } else {
-        let sides: [Side; SMALL_NODE] =
-            std::array::from_fn(|k| prims.get(k).map_or(Side::EMPTY, Side::of));
+        // Summed in the lights' order, as every node's Φ is.
         let mut node = Side::EMPTY;
-        sides[..n].iter().for_each(|side| node.add(side));
+        prims.iter().for_each(|p| node.push(p));
         let (_, pad, scale) = axis_weights(&node);
-        cheapest_cut(n, |k| sides[usize::from(order[k])], pad, scale)?.1
+        let item = |k: usize| Side::of(&prims[usize::from(order[k])]);
+        cheapest_cut(n, item, pad, scale, inputs)?.1
     };
-    let mut sorted = [Prim::LEFT_OUT; SMALL_NODE];
-    for (slot, &k) in sorted.iter_mut().zip(&order[..n]) {
-        *slot = prims[usize::from(k)];
-    }
-    prims.copy_from_slice(&sorted[..n]);
+    permute(prims, &order);
     Some(Split {
         mid,
         left: centroids,
         right: centroids,
     })
+}
+
+/// Puts light `order[k]` at position k, k < `prims.len()` (≤ [`SMALL_NODE`]), `order` being
+/// a permutation of those positions: cycle by cycle, each light moved once and one per cycle
+/// held aside (no copy of the whole node).
+fn permute(prims: &mut [Prim], order: &[u8; SMALL_NODE]) {
+    let mut placed = 0u32;
+    for start in 0..prims.len() {
+        if placed & 1 << start != 0 {
+            continue;
+        }
+        let held = prims[start];
+        let mut k = start;
+        loop {
+            placed |= 1 << k;
+            let from = usize::from(order[k]);
+            if from == start {
+                prims[k] = held;
+                break;
+            }
+            prims[k] = prims[from];
+            k = from;
+        }
+    }
 }
 
 /// Positions 0..keys.len() (at most [`SMALL_NODE`]) sorted by `keys[·][axis]`,

@@ -260,7 +260,7 @@ pub(super) fn collapse(
     let mut wide = vec![WideNode::empty()];
     let mut reach = vec![[0.0; LANES]];
     let mut pending = vec![(root, 0)];
-    let mut tables = None;
+    let mut tables = Table::empty();
     while let Some((start, at)) = pending.pop() {
         let lanes = open(binary, start, &mut tables);
         let children = wide.len() as u32;
@@ -393,7 +393,7 @@ fn collapse_block(
     let mut pending = vec![(start, None)];
     // The pending lanes are taken depth first, so the wide nodes of a small subtree come one
     // after the other and share its table.
-    let mut tables = None;
+    let mut tables = Table::empty();
     while let Some((start, at)) = pending.pop() {
         let lanes = open(binary, start, &mut tables);
         let children = base + used as u32;
@@ -426,11 +426,11 @@ fn collapse_block(
 pub(super) fn count_wide(binary: &[Node], start: Lane) -> usize {
     let mut count = 1;
     let mut pending = vec![start];
-    let mut tables = None;
+    let mut tables = Table::empty();
     while let Some(start) = pending.pop() {
         for &lane in interior(binary, &open(binary, start, &mut tables)) {
             if lane.count <= SMALL_SUBTREE {
-                count += small_count(binary, lane);
+                count += small_count(binary, lane, &mut tables);
             } else {
                 count += 1;
                 pending.push(lane);
@@ -445,7 +445,7 @@ pub(super) fn count_wide(binary: &[Node], start: Lane) -> usize {
 /// ([`small_cut`]); else its children, with the interior lane of largest
 /// [`opening_priority`] opened while fewer than eight lanes are used. `tables` is
 /// [`small_cut`]'s cache.
-fn open(binary: &[Node], start: Lane, tables: &mut Option<Table>) -> OpenLanes {
+fn open(binary: &[Node], start: Lane, tables: &mut Table) -> OpenLanes {
     if start.count <= SMALL_SUBTREE && !binary[start.index].is_leaf() {
         return small_cut(binary, start, tables);
     }
