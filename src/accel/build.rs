@@ -29,13 +29,12 @@ use obvhs::triangle::Triangle as BvhTriangle;
 use obvhs::BvhBuildParams;
 use rayon::prelude::*;
 
-use crate::sampling::prefetch::prefetch;
 use crate::scene::memory::BVH_PARTS_AT_ONCE;
 use crate::scene::Scene;
 
 use super::collapse::{octant_slots, Collapser, NodeGrid};
 use super::cut::{sah_cut, Centres, Item};
-use super::GATHER_AHEAD;
+use super::gathered_positions;
 
 /// Up to this many triangles the BVH is built with obvhs's most thorough preset (pre-splitting,
 /// reinsertion over all nodes); larger scenes use the medium preset, whose build time stays near
@@ -134,12 +133,8 @@ impl PartBuilder {
     fn build(&mut self, scene: &Scene, ids: &[u32], ordered: bool) -> CwBvh {
         let params = BvhBuildParams::medium_build();
         self.boxes.clear();
-        self.boxes.extend(ids.iter().enumerate().map(|(k, &i)| {
-            if let Some(&ahead) = ids.get(k + GATHER_AHEAD) {
-                prefetch(&scene.triangles[ahead as usize]);
-            }
-            bvh_triangle(scene.triangles[i as usize].positions).aabb()
-        }));
+        self.boxes
+            .extend((0..ids.len()).map(|k| bvh_triangle(gathered_positions(scene, ids, k)).aabb()));
         self.ploc.build_with_bvh(
             &mut self.bvh2,
             params.ploc_search_distance,

@@ -31,7 +31,7 @@ impl<'a> Subtree<'a> {
         let (mut tree, mut centroids) = (self, centroids);
         // (node, its topology, bounds of the half built, whether that is the left)
         let mut pending = Vec::new();
-        let mut inputs = CostInputs::ZERO;
+        let mut inputs = CostInputs::new();
         let mut bounds = loop {
             if tree.prims.len() < PARALLEL_MIN {
                 break tree.build_serial(grid, centroids);
@@ -95,7 +95,7 @@ impl<'a> Subtree<'a> {
             base,
             first,
         } = self;
-        let mut inputs = CostInputs::ZERO;
+        let mut inputs = CostInputs::new();
         let mut stack = vec![Task {
             start: 0,
             end: prims.len(),

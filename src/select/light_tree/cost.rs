@@ -26,16 +26,23 @@ pub(super) struct CostInputs {
     /// Widest θo and θe, as cosines.
     pub(super) cos_o: [f32; BATCH],
     pub(super) cos_e: [f32; BATCH],
+    /// Whether [`costs`](Self::costs) runs its AVX2 copy: the CPU was asked once, when these
+    /// inputs were made for a build.
+    pub(super) avx2: bool,
 }
 
 impl CostInputs {
-    pub(super) const ZERO: CostInputs = CostInputs {
-        phi_area: [0.0; BATCH],
-        a_sq: [0.0; BATCH],
-        a_min: [0.0; BATCH],
-        cos_o: [1.0; BATCH],
-        cos_e: [1.0; BATCH],
-    };
+    /// Inputs of no side, for a build on this CPU.
+    pub(super) fn new() -> CostInputs {
+        CostInputs {
+            phi_area: [0.0; BATCH],
+            a_sq: [0.0; BATCH],
+            a_min: [0.0; BATCH],
+            cos_o: [1.0; BATCH],
+            cos_e: [1.0; BATCH],
+            avx2: crate::cpu::has_avx2_fma(),
+        }
+    }
 
     /// pbrt-v4's split cost of sides `..n` without the axis factor,
     /// Φ · M_Ω(θo, θe) · surface area (scaled), θo being that of a cone
@@ -45,8 +52,8 @@ impl CostInputs {
     /// come from whatever the inputs hold there).
     pub(super) fn costs(&self, n: usize) -> [f32; BATCH] {
         #[cfg(target_arch = "x86_64")]
-        if crate::cpu::has_avx2_fma() {
-            // SAFETY: the CPU reported AVX2 and FMA.
+        if self.avx2 {
+            // SAFETY: `avx2` is set only where the CPU reported AVX2 and FMA.
             return unsafe { self.costs_avx2(n) };
         }
         self.costs_in::<Vec4>(n)

@@ -39,7 +39,8 @@
 //! octahedral codes), `node` (the 32-byte build node), `split` (binned split
 //! choice), `cost` (the split cost's orientation term in SIMD lanes), `build`
 //! (parallel subtree construction), `wide` (8-wide nodes and the collapse),
-//! `small_cut` (the collapse of small subtrees), `lanes` (the SIMD importance), `near_field` (the root's distance and direction terms from a table),
+//! `small_cut` (the collapse of small subtrees), `lanes` (the SIMD importance),
+//! `near_field` (the root's distance and direction terms from a table),
 //! `traverse` (LightBvh: build entry, sample, pmf), `tests`.
 
 mod bounds;

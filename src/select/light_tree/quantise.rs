@@ -305,7 +305,8 @@ pub(super) fn encode_spread(sigma: f64, radius: f32) -> u8 {
 
 /// `x.round()` (to the nearest whole number, halves away from zero) for the codes above, from a
 /// truncation by conversion to i64 and the remainder, where `f64::round` is a library call on
-/// CPUs without SSE4.1 (x86-64's baseline; a fifth of the wide nodes' coding at 1M lights).
+/// CPUs without SSE4.1 (x86-64's baseline; at 1M lights the collapse took 1,896 M instructions
+/// with it and 1,790 M without, valgrind --tool=callgrind).
 /// Equal to `x.round()` for |x| < 2⁶³ but for the sign of a zero; beyond, and for ±∞, the
 /// conversion saturates to ±2⁶³ and NaN gives 0, which the callers' clamps code as they code
 /// `x.round()`.

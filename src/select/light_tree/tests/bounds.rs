@@ -472,3 +472,44 @@ fn codes_round_to_nearest_as_the_library_does() {
         assert_eq!(code(round_to_nearest(x)), code(x.round()), "{x}");
     }
 }
+
+#[test]
+fn split_costs_are_the_same_in_four_and_eight_lanes() {
+    if !crate::cpu::has_avx2_fma() {
+        println!("no AVX2 here: only one copy of the costs to compare");
+        return;
+    }
+    let mut rng = Rand::new(37);
+    // Cosines at and near the ends of their range, beside random ones.
+    let cosines = [-1.0, -0.999_999, 0.0, 1e-7, 0.5, 0.999_999, 1.0];
+    for round in 0..2_000 {
+        let mut inputs = CostInputs::new();
+        for i in 0..BATCH {
+            let pick = |rng: &mut Rand| {
+                if round % 4 == 0 {
+                    cosines[(rng.f64() * cosines.len() as f64) as usize % cosines.len()]
+                } else {
+                    rng.f32() * 2.0 - 1.0
+                }
+            };
+            inputs.phi_area[i] = rng.f32();
+            inputs.a_sq[i] = if round % 7 == 0 { 0.0 } else { rng.f32() * 9.0 };
+            inputs.a_min[i] = rng.f32() * 6.0 - 3.0;
+            inputs.cos_o[i] = pick(&mut rng);
+            inputs.cos_e[i] = pick(&mut rng);
+            if round % 4 == 1 {
+                // The cone's nearest axis exactly opposite θo: cos θ + cos θo = 0.
+                inputs.a_sq[i] = 4.0;
+                inputs.a_min[i] = -2.0 * inputs.cos_o[i];
+            }
+        }
+        let eight = inputs.costs(BATCH);
+        inputs.avx2 = false;
+        let four = inputs.costs(BATCH);
+        assert_eq!(
+            eight.map(f32::to_bits),
+            four.map(f32::to_bits),
+            "{inputs:?}"
+        );
+    }
+}
