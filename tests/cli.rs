@@ -244,6 +244,7 @@ fn render_writes_exr_png_and_json_summary() {
         "render",
         "rays",
         "camera samples/s",
+        "µs per camera sample",
         "NaN",
     ] {
         assert!(stdout.contains(key), "summary lacks {key:?}: {stdout}");
@@ -255,5 +256,10 @@ fn render_writes_exr_png_and_json_summary() {
     assert_eq!(summary["stats"]["camera_samples"], 32 * 32 * 4);
     assert_eq!(summary["lights"], 2);
     assert!(summary["seconds"]["render"].as_f64().unwrap() > 0.0);
+    // The render's CPU seconds, and the same per camera sample.
+    let cpu = summary["seconds"]["render_cpu"].as_f64().unwrap();
+    assert!(cpu.is_finite() && cpu >= 0.0, "render_cpu {cpu}");
+    let per_sample = summary["cpu_us_per_camera_sample"].as_f64().unwrap();
+    assert!((per_sample * f64::from(32 * 32 * 4) - 1e6 * cpu).abs() <= 1e-9 * (1e6 * cpu));
     assert!(png.exists() && exr.exists());
 }

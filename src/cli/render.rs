@@ -11,6 +11,7 @@ use super::options::{check_resolution, finite, RenderOptionsArgs, RENDER_DEFAULT
 use super::output::check_output_path;
 use crate::image::{write_atomically, write_exr, write_png_preview, RgbImage};
 use crate::integrator::{render, PreparedScene, RenderOptions, RenderStats, Strategy};
+use crate::measure::cpu_time::{cpu_seconds_between, process_cpu_seconds};
 use crate::measure::{camera_or_framing, EstimatorChoice};
 use crate::sampling::sampler::SamplerKind;
 use crate::scene::load_gltf_allowing;
@@ -37,7 +38,7 @@ pub struct RenderArgs {
     pub json: Option<PathBuf>,
 }
 
-/// Seconds spent in each stage.
+/// Seconds spent in each stage (wall clock), and the CPU seconds of the render stage.
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct Timings {
     pub load: f64,
@@ -45,6 +46,10 @@ pub struct Timings {
     pub light_build: f64,
     pub render: f64,
     pub write: f64,
+    /// CPU seconds the process used while rendering, user and system, all threads (None where
+    /// the system does not say): unlike `render`, it does not grow while other jobs hold the
+    /// cores.
+    pub render_cpu: Option<f64>,
 }
 
 /// What `render` prints, and writes with `--json`.
@@ -80,6 +85,8 @@ pub struct RenderSummary {
     pub rays_total: u64,
     pub rays_per_second: f64,
     pub camera_samples_per_second: f64,
+    /// CPU microseconds per camera sample in the render stage (`seconds.render_cpu`).
+    pub cpu_us_per_camera_sample: Option<f64>,
     pub image_mean: f64,
 }
 
@@ -160,9 +167,10 @@ fn render_scene(
         first_sample: 0,
         clamp: o.clamp,
     };
-    let t = Instant::now();
+    let (t, cpu) = (Instant::now(), process_cpu_seconds());
     let (film, stats) = render(&estimator, &camera, &opts);
     seconds.render = t.elapsed().as_secs_f64();
+    seconds.render_cpu = cpu_seconds_between(cpu, process_cpu_seconds());
 
     let t = Instant::now();
     let mean = RgbImage {
@@ -215,6 +223,9 @@ fn render_scene(
         rays_total,
         rays_per_second: rays_total as f64 / seconds.render,
         camera_samples_per_second: stats.camera_samples as f64 / seconds.render,
+        cpu_us_per_camera_sample: seconds
+            .render_cpu
+            .map(|cpu| 1e6 * cpu / stats.camera_samples.max(1) as f64),
         image_mean: film.image_mean(),
         seconds,
         stats,
@@ -268,6 +279,12 @@ fn print_summary(s: &RenderSummary) {
         mega(s.camera_samples_per_second),
         s.image_mean
     );
+    if let (Some(cpu), Some(per_sample)) = (t.render_cpu, s.cpu_us_per_camera_sample) {
+        println!(
+            "cpu       render {cpu:.3} s on {} threads, {per_sample:.3} µs per camera sample",
+            s.threads
+        );
+    }
     if r.spherical_samples + r.area_samples > 0 {
         println!(
             "triangle  {} solid-angle samples, {} area samples",

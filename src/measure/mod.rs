@@ -4,6 +4,7 @@
 pub mod bench;
 pub mod checkpoint;
 pub mod converge;
+pub mod cpu_time;
 pub mod errors;
 pub mod fit;
 pub mod mask;
