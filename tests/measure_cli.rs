@@ -101,7 +101,15 @@ fn bench_reports_every_configuration_and_reuses_its_cached_reference() {
         for field in ["selector", "strategy", "k", "n", "spp", "biased"] {
             assert!(!row[field].is_null(), "{field} missing in {row}");
         }
-        for field in ["seconds", "rays", "mse", "relmse", "variance", "efficiency"] {
+        for field in [
+            "seconds",
+            "cpu_seconds",
+            "rays",
+            "mse",
+            "relmse",
+            "variance",
+            "efficiency",
+        ] {
             let v = row[field].as_f64().unwrap_or(f64::NAN);
             assert!(v.is_finite() && v >= 0.0, "{field} = {v} in {row}");
         }

@@ -17,6 +17,7 @@ use std::time::Instant;
 
 use serde::Serialize;
 
+use super::cpu_time::{cpu_seconds_between, process_cpu_seconds};
 use super::errors::{not_falling, Against, ErrorAccumulator, Errors, WORST_PIXEL_SHARE_FLAG};
 use super::fit::{cost_to_target, TargetCost, TargetPoint};
 use super::metrics::compare;
@@ -57,6 +58,9 @@ pub struct BenchRow {
     pub seconds: f64,
     pub seconds_min: f64,
     pub seconds_max: f64,
+    /// Median CPU seconds of the renders over repeats, user and system, all threads (None where
+    /// the system does not say): what `seconds` would be on cores of its own.
+    pub cpu_seconds: Option<f64>,
     /// Rays traced per render (mean over repeats).
     pub rays: u64,
     pub mse: f64,
@@ -155,6 +159,7 @@ pub fn split_baseline(b: &str) -> (&str, Option<u32>) {
 /// One render's measurements.
 struct Run {
     seconds: f64,
+    cpu_seconds: Option<f64>,
     spp: u32,
     rays: u64,
     variance: f64,
@@ -203,6 +208,7 @@ pub fn run(
                             first_sample: 0,
                             clamp: plan.clamp,
                         };
+                        let cpu = process_cpu_seconds();
                         let (film, stats, seconds, spp) = match plan.time_budget {
                             Some(b) => {
                                 let p = render_progressive(
@@ -221,10 +227,12 @@ pub fn run(
                                 (film, stats, t.elapsed().as_secs_f64(), opts.spp)
                             }
                         };
+                        let cpu_seconds = cpu_seconds_between(cpu, process_cpu_seconds());
                         let image = mean_image(&film);
                         errors.add(&image, against);
                         Run {
                             seconds,
+                            cpu_seconds,
                             spp,
                             rays: stats.rays.total_rays(),
                             variance: mean_variance(&film),
@@ -250,6 +258,8 @@ fn aggregate(e: EstimatorChoice, plan: &BenchPlan, runs: Vec<Run>, errors: Error
     let mean = |f: fn(&Run) -> f64| runs.iter().map(f).sum::<f64>() / r;
     let mut secs: Vec<f64> = runs.iter().map(|x| x.seconds).collect();
     let seconds = median(&mut secs);
+    let mut cpu: Vec<f64> = runs.iter().filter_map(|x| x.cpu_seconds).collect();
+    let cpu_seconds = (cpu.len() == runs.len()).then(|| median(&mut cpu));
     let mut spps: Vec<f64> = runs.iter().map(|x| x.spp as f64).collect();
     let spp = median(&mut spps).round() as u32;
     let (mse, mse_interval) = (errors.all.mse, errors.all.mse_interval);
@@ -266,6 +276,7 @@ fn aggregate(e: EstimatorChoice, plan: &BenchPlan, runs: Vec<Run>, errors: Error
         seconds,
         seconds_min: secs.iter().cloned().fold(f64::INFINITY, f64::min),
         seconds_max: secs.iter().cloned().fold(0.0, f64::max),
+        cpu_seconds,
         rays: (mean(|x| x.rays as f64)).round() as u64,
         mse,
         mse_interval,

@@ -12,12 +12,13 @@ use crate::image::write_atomically;
 
 /// Column headers and one row's cells, shared by the table, CSV and Markdown; the table
 /// shows only the columns marked for it.
-const HEADERS: [(&str, bool); 31] = [
+const HEADERS: [(&str, bool); 32] = [
     ("config", true),
     ("spp", true),
     ("seconds", true),
     ("s min", false),
     ("s max", false),
+    ("cpu s", true),
     ("Mrays", false),
     ("MSE", true),
     ("MSE 95% lo", false),
@@ -46,7 +47,7 @@ const HEADERS: [(&str, bool); 31] = [
     ("external", false),
 ];
 
-fn cells(row: &ReportRow) -> [String; 31] {
+fn cells(row: &ReportRow) -> [String; 32] {
     let e = |x: f64| format!("{x:.3e}");
     let opt = |x: Option<f64>| x.map_or("-".into(), e);
     let ends = |i: Option<[f64; 2]>| i.map_or(("-".into(), "-".into()), |[a, b]| (e(a), e(b)));
@@ -82,6 +83,7 @@ fn cells(row: &ReportRow) -> [String; 31] {
             short(r.seconds),
             short(r.seconds_min),
             short(r.seconds_max),
+            r.cpu_seconds.map_or("-".into(), short),
             short(r.rays as f64 / 1e6),
             a,
             b,
@@ -113,6 +115,7 @@ fn cells(row: &ReportRow) -> [String; 31] {
             row.label(),
             x.spp.map_or("-".into(), |s| s.to_string()),
             x.seconds.map_or("-".into(), short),
+            "-".into(),
             "-".into(),
             "-".into(),
             "-".into(),
