@@ -195,7 +195,7 @@ impl Accel {
             &self.bvh.nodes,
             &self.planes,
             &mut walk_ray,
-            |ray, planes| node_avx2::test_children(planes, &node_ray, ray.tmax),
+            |ray, planes, _| node_avx2::test_children(planes, &node_ray, ray.tmax),
             |ray| ray.tmax,
             leaf,
         );

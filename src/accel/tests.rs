@@ -217,6 +217,142 @@ fn the_avx2_node_test_gives_obvhs_masks_but_for_grazed_children() {
     );
 }
 
+/// The packet's interval node test (`node_avx2::test_packet`, every child taken as an inner one)
+/// keeps every child any of its rays hits (`node_avx2::test_children`, the single-ray test), at
+/// an entry no farther than that ray's, and keeps as leaves exactly the children some ray hits:
+/// random packets of 2..=8 rays from one origin or from origins spread over 1 mm or 1 m,
+/// with random tmax, against random child boxes (some flat, some 1 mm wide); a third of the
+/// packets aim at one corner of a box within 1e-6 (grazing it), a fifth run nearly along an
+/// axis (other components of 1e-7 or exactly 0). The mixed-sign packets among those take the
+/// ray-by-ray fallback (`NodePacket::new` is `None`).
+#[cfg(target_arch = "x86_64")]
+#[test]
+fn the_packet_node_test_keeps_every_child_a_ray_hits() {
+    use std::arch::x86_64::{_mm256_loadu_ps, _mm256_movemask_ps, _mm256_storeu_ps};
+    if !has_avx2_fma() {
+        return;
+    }
+    let mut u = uniforms(21);
+    let mut rand3 = move || Vec3::new(u(), u(), u());
+    let (mut tested, mut fallbacks, mut kept, mut extra, mut straddled) = (0, 0, 0, 0, 0);
+    for trial in 0..30_000 {
+        let mut planes = planes::ChildPlanes([[0.0; 8]; 6]);
+        let mut corners = [Vec3::ZERO; 8];
+        for (child, corner) in corners.iter_mut().enumerate() {
+            let lo = rand3() * 10.0 - Vec3::splat(5.0);
+            let size = match child % 4 {
+                0 => rand3() * Vec3::new(3.0, 3.0, 0.0),
+                1 => rand3() * 1e-3,
+                _ => rand3() * 3.0,
+            };
+            let hi = lo + size;
+            let pick = rand3();
+            for axis in 0..3 {
+                planes.0[2 * axis][child] = lo[axis];
+                planes.0[2 * axis + 1][child] = hi[axis];
+                corner[axis] = if pick[axis] < 0.5 { lo[axis] } else { hi[axis] };
+            }
+        }
+        let origin = rand3() * 30.0 - Vec3::splat(15.0);
+        let spread = [0.0, 1e-3, 1.0][trial % 3];
+        let aim = rand3();
+        let (target, width) = if trial % 3 == 0 {
+            (corners[(aim.x * 8.0) as usize % 8], 1e-6)
+        } else {
+            (rand3() * 10.0 - Vec3::splat(5.0), 0.3 * aim.y)
+        };
+        let along = (trial % 5 == 0).then_some((aim.z * 3.0) as usize % 3);
+        let size = 2 + trial % 7;
+        let rays: Vec<Ray> = (0..size)
+            .map(|_| {
+                let o = origin + spread * (rand3() - Vec3::splat(0.5));
+                let mut dir = target + width * (rand3() - Vec3::splat(0.5)) - o;
+                if let Some(axis) = along {
+                    let main = dir[axis];
+                    let tiny = rand3();
+                    dir =
+                        (tiny - Vec3::splat(0.5)) * 2e-7 * main.abs() * (tiny.x < 0.8) as u8 as f32;
+                    dir[axis] = main;
+                }
+                let tmax = if aim.y < 0.5 {
+                    f32::INFINITY
+                } else {
+                    40.0 * rand3().x
+                };
+                guarded_ray(o, dir.normalize_or(Vec3::X), tmax)
+            })
+            .collect();
+        // The rays in lanes, spare lanes repeating the first (as `closest_hits_avx2` has them).
+        let lane = |f: &dyn Fn(&Ray) -> f32| {
+            let mut v = [f(&rays[0]); PACKET];
+            for (x, ray) in v.iter_mut().zip(&rays) {
+                *x = f(ray);
+            }
+            // SAFETY: the CPU reported AVX2 and FMA above.
+            unsafe { _mm256_loadu_ps(v.as_ptr()) }
+        };
+        let axes = |f: fn(&Ray) -> Vec3A| [0, 1, 2].map(|axis| lane(&|ray| f(ray)[axis]));
+        let (origin, direction) = (axes(|ray| ray.origin), axes(|ray| ray.direction));
+        let inverse = axes(|ray| ray.inv_direction);
+        // SAFETY: as above.
+        let Some(bounds) = (unsafe { node_avx2::NodePacket::new(origin, direction, inverse) })
+        else {
+            fallbacks += 1;
+            continue;
+        };
+        tested += 1;
+        let tmax = lane(&|ray| ray.tmax);
+        let reach = rays.iter().fold(0.0f32, |m, r| m.max(r.tmax));
+        let lanes = |(hit, entry)| {
+            let mut t = [0.0f32; 8];
+            // SAFETY: as above.
+            unsafe { _mm256_storeu_ps(t.as_mut_ptr(), entry) };
+            (unsafe { _mm256_movemask_ps(hit) }, t)
+        };
+        // Every child taken as an inner one (the interval test alone), then as a leaf.
+        let (packet_hits, packet_entry) =
+            lanes(unsafe { node_avx2::test_packet(&planes, &bounds, tmax, reach, 0xff) });
+        let (leaf_hits, _) =
+            lanes(unsafe { node_avx2::test_packet(&planes, &bounds, tmax, reach, 0) });
+        let (mut any, mut all) = (0, 0xff);
+        for ray in &rays {
+            let node_ray = node_avx2::NodeRay::new(ray);
+            let (hits, entry) =
+                lanes(unsafe { node_avx2::test_children(&planes, &node_ray, ray.tmax) });
+            for child in (0..8).filter(|c| hits >> c & 1 == 1) {
+                assert!(
+                    packet_hits >> child & 1 == 1,
+                    "trial {trial}: child {child} dropped, ray {ray:?}"
+                );
+                assert!(
+                    packet_entry[child] <= entry[child],
+                    "trial {trial}: child {child} entry {} beyond {}",
+                    packet_entry[child],
+                    entry[child]
+                );
+            }
+            (any, all) = (any | hits, all & hits);
+        }
+        assert_eq!(leaf_hits, any, "trial {trial}: leaves");
+        kept += (any as u32).count_ones();
+        extra += (packet_hits & !any).count_ones();
+        straddled += ((any & !all) as u32).count_ones();
+    }
+    assert!(
+        tested > 15_000 && fallbacks > 3_000,
+        "{tested} packets tested, {fallbacks} fell back"
+    );
+    assert!(
+        kept > 5_000 && straddled > 3_000,
+        "{kept} children hit, {straddled} hit by some rays only"
+    );
+    // The bounds are close: the children kept that no ray hits are fewer than half those hit.
+    assert!(
+        extra * 2 < kept,
+        "{extra} children kept but not hit, {kept} hit"
+    );
+}
+
 /// A hit mask with only lane `child` set.
 #[cfg(target_arch = "x86_64")]
 fn one_lane(child: usize) -> std::arch::x86_64::__m256 {

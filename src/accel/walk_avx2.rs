@@ -33,9 +33,10 @@ use super::planes::ChildPlanes;
 const STACK: usize = 512;
 
 /// Walks the BVH of `nodes` (with their child boxes as f32 `planes`, one per node) for a query
-/// `state` (one ray, or the rays of a packet): `children(state, planes)` gives the hit lanes
-/// and entry distances of a node's children from its planes (for a
-/// packet: the lanes any ray hits, at the least entry among the rays that hit them),
+/// `state` (one ray, or the rays of a packet): `children(state, planes, imask)` gives the hit
+/// lanes and entry distances of a node's children from its planes and its mask of inner
+/// children (for a packet: at least the lanes any ray hits, at no more than the least entry
+/// among the rays that hit them),
 /// `reach(state)` the farthest distance any ray still looks at (its tmax), and
 /// `leaf(state, base, mask)` tests the triangles in leaf-order slots `base + i` for the set
 /// bits i of `mask` (the triangles of a node's leaf children that the query enters), possibly
@@ -49,7 +50,7 @@ pub(super) unsafe fn walk<S>(
     nodes: &[CwBvhNode],
     planes: &[ChildPlanes],
     state: &mut S,
-    children: impl Fn(&S, &ChildPlanes) -> (__m256, __m256),
+    children: impl Fn(&S, &ChildPlanes, u32) -> (__m256, __m256),
     reach: impl Fn(&S) -> f32,
     mut leaf: impl FnMut(&mut S, u32, u32) -> bool,
 ) {
@@ -61,9 +62,9 @@ pub(super) unsafe fn walk<S>(
     let mut index = 0u32;
     loop {
         let node = &nodes[index as usize];
-        // SAFETY: `planes` and `nodes` have the same length, and `nodes[index]` exists.
-        let (hit, entry) = children(state, planes.get_unchecked(index as usize));
         let imask = node.imask as u32;
+        // SAFETY: `planes` and `nodes` have the same length, and `nodes[index]` exists.
+        let (hit, entry) = children(state, planes.get_unchecked(index as usize), imask);
         let hits = _mm256_movemask_ps(hit) as u32;
         let mut inner = hits & imask;
         // Leaf children (an empty slot has meta 0: no triangles): the low five bits of a leaf's
