@@ -7,9 +7,17 @@ use super::spherical_triangle::SphericalTriangle;
 use crate::color::luminance;
 use crate::sampling::warp;
 
-/// Solid-angle sampling is used above this Ω (sr); below it, area sampling, whose pdf is better
-/// conditioned for tiny or distant triangles (pbrt-v4's threshold).
-pub const MIN_SPHERICAL_SOLID_ANGLE: f32 = 3e-4;
+/// Solid-angle sampling is used above this Ω (sr); below it, area sampling, which costs far less
+/// and, over a triangle that small (a cone of about 3° half-angle), varies little in 1/r² and
+/// the cosines. pbrt-v4's threshold, 3e-4 sr, is where area sampling becomes the better
+/// conditioned; from there to 1e-2 sr solid-angle sampling bought almost nothing. bvh + mis on
+/// the 50k `gen city` (render --spp 8 --width 64 --height 48 --sampler independent --threads 1,
+/// valgrind --tool=callgrind, inside tiles::render): 3e-4 → 3e-3 → 1e-2 → 3e-2 sr, 147.5 →
+/// 142.2 → 139.9 → 139.3 M instructions; one camera sample's lit-surface MSE (`bench --spp 1
+/// --repeat 100`, 320×240, against one 1024-spp reference), seed 1000: city 2.6255 → 2.6264 →
+/// 2.6310 → 2.6460, town 5.4119 → 5.4156 → 5.4254 → 5.4357; seed 2000 at 3e-4 → 1e-2: city
+/// 2.4980 → 2.5021, town 5.4101 → 5.4258. So 5% less work for 0.2–0.3% more error.
+pub const MIN_SPHERICAL_SOLID_ANGLE: f32 = 1e-2;
 /// From this Ω (sr) on, the receiver sits just above the triangle's interior, where Arvo's map
 /// loses precision and area sampling's density r²/(A·cosθ') spans many decades (pbrt-v4 falls
 /// back to area sampling here). We split the triangle at the receiver's foot instead (see
@@ -386,11 +394,15 @@ mod tests {
             near_threshold += (omega > 0.5 * MIN_SPHERICAL_SOLID_ANGLE
                 && omega <= MIN_SPHERICAL_SOLID_ANGLE) as u32;
         }
+        // The bounds are exercised, the plane bound skips more than the ball bound, and cases
+        // within a factor of two below the threshold are met and skipped (at 1e-2 sr: 138,822
+        // skipped by the ball bound, 185,005 by the plane bound; 6,708 cases near the
+        // threshold, 1,496 of them skipped by the plane bound).
         assert!(
             skipped > 20_000
-                && by_plane > skipped + skipped / 2
+                && by_plane > skipped + skipped / 5
                 && near_threshold > 1000
-                && plane_near_threshold > 3000,
+                && plane_near_threshold > 1000,
             "{skipped} {by_plane} {near_threshold} {plane_near_threshold}"
         );
     }

@@ -2,6 +2,7 @@
 //! sampling (support, unbiasedness, uniformity, stratification, hostile input) in `sampling`.
 
 use super::*;
+use crate::lights::triangle::MIN_SPHERICAL_SOLID_ANGLE;
 use rand_core::Rng;
 use rand_pcg::Pcg32;
 use std::f64::consts::PI;
@@ -160,8 +161,13 @@ pub(super) fn cases() -> Vec<Case> {
             ],
         },
         Case {
-            name: "threshold 3e-4 sr",
+            name: "small, 3e-4 sr",
             p: height_for_solid_angle(big, 3e-4),
+            v: big,
+        },
+        Case {
+            name: "threshold MIN_SPHERICAL_SOLID_ANGLE",
+            p: height_for_solid_angle(big, MIN_SPHERICAL_SOLID_ANGLE),
             v: big,
         },
         Case {
@@ -170,7 +176,7 @@ pub(super) fn cases() -> Vec<Case> {
             v: big,
         },
         Case {
-            name: "threshold 3e-4 sr, oblique sliver",
+            name: "small, 3e-4 sr, oblique sliver",
             p: at_solid_angle(
                 sliver,
                 Vec3::ZERO,
