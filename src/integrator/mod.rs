@@ -18,7 +18,8 @@ pub enum Strategy {
     /// K lights from the selector, N uniform points on each (area measure), one shadow ray each.
     LightArea,
     /// As light-area, but points uniform in the triangle's solid angle (Arvo 1995), with area
-    /// sampling when Ω < `MIN_SPHERICAL_SOLID_ANGLE` (1e-2 sr); from 6.22 sr on the triangle
+    /// sampling when Ω < 1e-2 sr (3e-4 sr where the receiver sees the triangle's points at
+    /// distances differing by more than 1.5×; `lights::triangle`); from 6.22 sr on the triangle
     /// is split at the receiver's foot.
     LightSolidAngle,
     /// K·N directions from the BRDF (cosine diffuse lobe, GGX visible normals); one ray each.

@@ -7,22 +7,45 @@ use super::spherical_triangle::SphericalTriangle;
 use crate::color::luminance;
 use crate::sampling::warp;
 
-/// Solid-angle sampling is used above this Ω (sr); below it, area sampling, which costs far less
-/// and, over a triangle that small (a cone of about 3° half-angle), varies little in 1/r² and
-/// the cosines. pbrt-v4's threshold, 3e-4 sr, is where area sampling becomes the better
-/// conditioned; from there to 1e-2 sr solid-angle sampling bought almost nothing. bvh + mis on
-/// the 50k `gen city` (render --spp 8 --width 64 --height 48 --sampler independent --threads 1,
-/// valgrind --tool=callgrind, inside tiles::render): 3e-4 → 3e-3 → 1e-2 → 3e-2 sr, 147.5 →
-/// 142.2 → 139.9 → 139.3 M instructions; one camera sample's lit-surface MSE (`bench --spp 1
-/// --repeat 100`, 320×240, against one 1024-spp reference), seed 1000: city 2.6255 → 2.6264 →
-/// 2.6310 → 2.6460, town 5.4119 → 5.4156 → 5.4254 → 5.4357; seed 2000 at 3e-4 → 1e-2: city
-/// 2.4980 → 2.5021, town 5.4101 → 5.4258. So 5% less work for 0.2–0.3% more error.
+/// Solid-angle sampling is used above this Ω (sr) where the receiver is at least
+/// [`EVEN_DISTANCE_BALLS`] ball radii from the triangle; below it, area sampling, which costs far
+/// less and, over a triangle that small (a cone of about 3° half-angle) whose points lie within a
+/// factor 1.5 of each other's distance, varies little in 1/r² and the cosines. pbrt-v4's
+/// threshold, 3e-4 sr ([`MIN_SPHERICAL_SOLID_ANGLE_UNEVEN`]), is where area sampling becomes the
+/// better conditioned; from there to 1e-2 sr solid-angle sampling bought almost nothing on the
+/// city and the town. bvh + mis on the 50k `gen city` (render --spp 8 --width 64 --height 48
+/// --sampler independent --threads 1, valgrind --tool=callgrind, inside tiles::render), with
+/// this threshold for every receiver: 3e-4 → 3e-3 → 1e-2 → 3e-2 sr, 147.5 → 142.2 → 139.9 →
+/// 139.3 M instructions; one camera sample's lit-surface MSE (`bench --spp 1 --repeat 100`,
+/// 320×240, against one 1024-spp reference), seed 1000: city 2.6255 → 2.6264 → 2.6310 →
+/// 2.6460, town 5.4119 → 5.4156 → 5.4254 → 5.4357; seed 2000 at 3e-4 → 1e-2: city 2.4980 →
+/// 2.5021, town 5.4101 → 5.4258. So 5% less work for 0.2–0.3% more error.
 pub const MIN_SPHERICAL_SOLID_ANGLE: f32 = 1e-2;
+/// The threshold where the receiver is nearer than [`EVEN_DISTANCE_BALLS`] ball radii: there the
+/// triangle's distances from it may differ by more than a factor 1.5 (a sliver seen from near
+/// one end, a large triangle seen at a slant from close to its plane), 1/r² varies over it, and
+/// solid-angle sampling pays from pbrt-v4's 3e-4 sr on.
+pub const MIN_SPHERICAL_SOLID_ANGLE_UNEVEN: f32 = 3e-4;
+/// A receiver at least this many radii R from the centre c of the ball about the triangle's
+/// vertex mean (radius to its farthest vertex) sees every point of it at a distance within
+/// [|p − c| − R, |p − c| + R], a ratio of at most (5 + 1)/(5 − 1) = 1.5.
+pub const EVEN_DISTANCE_BALLS: f32 = 5.0;
 /// From this Ω (sr) on, the receiver sits just above the triangle's interior, where Arvo's map
 /// loses precision and area sampling's density r²/(A·cosθ') spans many decades (pbrt-v4 falls
 /// back to area sampling here). We split the triangle at the receiver's foot instead (see
 /// `SolidAngleView::Split`), so solid-angle sampling stays uniform up to Ω = 2π.
 pub const MAX_SPHERICAL_SOLID_ANGLE: f32 = 6.22;
+
+/// The area-sampling threshold for a receiver at squared distance `d2` from the centre of a
+/// triangle's ball of squared radius `r2` (`TriangleLight::area_threshold`).
+#[inline]
+fn threshold_at(d2: f32, r2: f32) -> f32 {
+    if d2 >= EVEN_DISTANCE_BALLS * EVEN_DISTANCE_BALLS * r2 {
+        MIN_SPHERICAL_SOLID_ANGLE
+    } else {
+        MIN_SPHERICAL_SOLID_ANGLE_UNEVEN
+    }
+}
 
 /// The triangle seen from a receiver, for uniform solid-angle sampling. A short-lived stack
 /// value (boxing the large variant would allocate per sample).
@@ -88,7 +111,7 @@ pub enum Technique {
     /// Uniform by area: p(x') = 1/A in area measure.
     Area,
     /// Uniform in the solid angle seen from the receiver (Arvo 1995): p(ω) = 1/Ω, with area
-    /// sampling below MIN_SPHERICAL_SOLID_ANGLE.
+    /// sampling below the triangle's `area_threshold` at the receiver.
     SolidAngle,
 }
 
@@ -138,7 +161,7 @@ impl TriangleLight {
     }
 
     /// The solid-angle view of this triangle from p, when that technique applies there
-    /// (Ω above MIN_SPHERICAL_SOLID_ANGLE; split at the foot from MAX_SPHERICAL_SOLID_ANGLE on).
+    /// (Ω above its `area_threshold`; split at the foot from MAX_SPHERICAL_SOLID_ANGLE on).
     /// The cheap test that rules most distant triangles out is inlined into the caller; the
     /// set-up is not.
     #[inline(always)]
@@ -152,12 +175,13 @@ impl TriangleLight {
     /// `spherical_at` past its cheap test: Arvo's set-up, whole or split.
     #[inline(never)]
     fn spherical_view(&self, p: Vec3) -> Option<SolidAngleView> {
-        if self.solid_angle_small_by_plane(p) {
+        let threshold = self.area_threshold(p);
+        if self.solid_angle_small_by_plane(p, threshold) {
             return None;
         }
         let view = SphericalTriangle::new(p, self.vertices())?;
         let omega = view.solid_angle();
-        if omega <= MIN_SPHERICAL_SOLID_ANGLE {
+        if omega <= threshold {
             return None;
         }
         if omega < MAX_SPHERICAL_SOLID_ANGLE {
@@ -178,23 +202,39 @@ impl TriangleLight {
         })
     }
 
-    /// Whether Ω from p is surely at most MIN_SPHERICAL_SOLID_ANGLE, without computing it: the
-    /// triangle lies in the ball about its centroid c whose radius R reaches its farthest
-    /// vertex, so Ω is at most the cone's 2π(1 − cos α) ≤ 2π·sin²α = 2π·R²/|p − c|². A 1%
-    /// margin covers rounding, so this never says yes where the exact Ω (f64) exceeds the
-    /// threshold: it only spares distant triangles the spherical set-up.
+    /// The ball about the vertices' mean c whose radius R reaches the farthest vertex: (c, R²).
     #[inline]
-    fn solid_angle_surely_small(&self, p: Vec3) -> bool {
+    fn ball(&self) -> (Vec3, f32) {
         let c = self.p0 + (self.e1 + self.e2) * (1.0 / 3.0);
         let to_p0 = self.p0 - c;
         let r2 = to_p0
             .length_squared()
             .max((to_p0 + self.e1).length_squared())
             .max((to_p0 + self.e2).length_squared());
-        std::f32::consts::TAU * r2 < 0.99 * MIN_SPHERICAL_SOLID_ANGLE * (p - c).length_squared()
+        (c, r2)
     }
 
-    /// Whether Ω from p is surely at most MIN_SPHERICAL_SOLID_ANGLE by a bound that also counts
+    /// The Ω up to which the triangle is area-sampled from p: [`MIN_SPHERICAL_SOLID_ANGLE`] where
+    /// |p − c|² ≥ ([`EVEN_DISTANCE_BALLS`]·R)² (its `ball`), else
+    /// [`MIN_SPHERICAL_SOLID_ANGLE_UNEVEN`] (also for a NaN distance).
+    #[inline]
+    fn area_threshold(&self, p: Vec3) -> f32 {
+        let (c, r2) = self.ball();
+        threshold_at((p - c).length_squared(), r2)
+    }
+
+    /// Whether Ω from p is surely at most its `area_threshold`, without computing Ω: the
+    /// triangle lies in its `ball` (c, R), so Ω is at most the cone's 2π(1 − cos α) ≤ 2π·sin²α =
+    /// 2π·R²/|p − c|². A 1% margin covers rounding, so this never says yes where the exact Ω
+    /// (f64) exceeds the threshold: it only spares distant triangles the spherical set-up.
+    #[inline]
+    fn solid_angle_surely_small(&self, p: Vec3) -> bool {
+        let (c, r2) = self.ball();
+        let d2 = (p - c).length_squared();
+        std::f32::consts::TAU * r2 < 0.99 * threshold_at(d2, r2) * d2
+    }
+
+    /// Whether Ω from p is surely at most `threshold` by a bound that also counts
     /// how obliquely the plane is seen: each point x of the triangle subtends dω = h/|p − x|³ dA,
     /// h the distance from p to the plane, so Ω ≤ A·h / r³ where r = |p − c| − R ≤ |p − x| (the
     /// ball about the vertices' mean c whose radius R reaches the farthest vertex holds the
@@ -204,7 +244,7 @@ impl TriangleLight {
     /// |v2 − v0| ≤ (|p − c| + R)·4R²), and the 1% margin of `solid_angle_surely_small` stays,
     /// so it never says yes where the exact Ω exceeds the threshold. It spares the set-up where
     /// the receiver sees a nearby triangle's plane at a slant, which the ball bound cannot tell.
-    fn solid_angle_small_by_plane(&self, p: Vec3) -> bool {
+    fn solid_angle_small_by_plane(&self, p: Vec3, threshold: f32) -> bool {
         let [v0, v1, v2] = self.vertices();
         let c = (v0 + v1 + v2) * (1.0 / 3.0);
         let r2 = (v0 - c)
@@ -216,8 +256,7 @@ impl TriangleLight {
         let nearest = distance - radius - 1e-6 * reach;
         let triple = (v0 - p).dot((v1 - v0).cross(v2 - v0)).abs() + 4e-6 * reach * r2;
         // False where the ball reaches p (or a value is not finite).
-        nearest > 0.0
-            && 0.5 * triple < 0.99 * MIN_SPHERICAL_SOLID_ANGLE * (nearest * nearest * nearest)
+        nearest > 0.0 && 0.5 * triple < 0.99 * threshold * (nearest * nearest * nearest)
     }
 
     /// Whether no point of this light can send light to a receiver at p with geometric normal
@@ -379,23 +418,20 @@ mod tests {
                 continue;
             };
             let omega = view.solid_angle();
+            let threshold = light.area_threshold(p);
             if light.solid_angle_surely_small(p) {
                 skipped += 1;
-                assert!(omega <= MIN_SPHERICAL_SOLID_ANGLE, "Ω {omega} from {p}");
+                assert!(omega <= threshold, "Ω {omega} from {p}");
             }
-            if light.solid_angle_small_by_plane(p) {
+            if light.solid_angle_small_by_plane(p, threshold) {
                 by_plane += 1;
-                assert!(
-                    omega <= MIN_SPHERICAL_SOLID_ANGLE,
-                    "Ω {omega} from {p} (plane)"
-                );
-                plane_near_threshold += (omega > 0.5 * MIN_SPHERICAL_SOLID_ANGLE) as u32;
+                assert!(omega <= threshold, "Ω {omega} from {p} (plane)");
+                plane_near_threshold += (omega > 0.5 * threshold) as u32;
             }
-            near_threshold += (omega > 0.5 * MIN_SPHERICAL_SOLID_ANGLE
-                && omega <= MIN_SPHERICAL_SOLID_ANGLE) as u32;
+            near_threshold += (omega > 0.5 * threshold && omega <= threshold) as u32;
         }
         // The bounds are exercised, the plane bound skips more than the ball bound, and cases
-        // within a factor of two below the threshold are met and skipped (at 1e-2 sr: 138,822
+        // within a factor of two below the threshold are met and skipped (here: 138,822
         // skipped by the ball bound, 185,005 by the plane bound; 6,708 cases near the
         // threshold, 1,496 of them skipped by the plane bound).
         assert!(
@@ -405,6 +441,67 @@ mod tests {
                 && plane_near_threshold > 1000,
             "{skipped} {by_plane} {near_threshold} {plane_near_threshold}"
         );
+    }
+
+    /// The area-sampling threshold follows how evenly the receiver sees the triangle: a 1 m
+    /// sliver 1 mm wide seen from 0.1 m above a point 0.05 m beyond one end (distances
+    /// 0.11–1.06 m, Ω ≈ 6e-3 sr) is solid-angle sampled, though its Ω is below
+    /// `MIN_SPHERICAL_SOLID_ANGLE`; the same
+    /// sliver seen broadside from 5 m (Ω ≈ 2e-5 sr) and a fat triangle 20 radii away with Ω
+    /// between the two thresholds (≈ 3e-3 sr) are area-sampled.
+    #[test]
+    fn uneven_views_keep_solid_angle_sampling_down_to_the_lower_threshold() {
+        let light = |v: [Vec3; 3]| {
+            let (e1, e2) = (v[1] - v[0], v[2] - v[0]);
+            TriangleLight {
+                p0: v[0],
+                e1,
+                e2,
+                normal: e1.cross(e2).normalize(),
+                area: 0.5 * e1.cross(e2).length(),
+                radiance: Vec3::ONE,
+                two_sided: true,
+                textured: false,
+                triangle: 0,
+            }
+        };
+        let omega = |l: &TriangleLight, p: Vec3| {
+            SphericalTriangle::new(p, l.vertices())
+                .unwrap()
+                .solid_angle()
+        };
+        let sliver = light([
+            Vec3::ZERO,
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.001, 0.0),
+        ]);
+        let near_end = Vec3::new(-0.05, 0.0005, 0.1);
+        let w = omega(&sliver, near_end);
+        assert!(
+            MIN_SPHERICAL_SOLID_ANGLE_UNEVEN < w && w < MIN_SPHERICAL_SOLID_ANGLE,
+            "{w}"
+        );
+        assert!(sliver
+            .spherical_at(near_end, Technique::SolidAngle)
+            .is_some());
+        let broadside = Vec3::new(0.5, 0.0, 5.0);
+        assert!(omega(&sliver, broadside) < MIN_SPHERICAL_SOLID_ANGLE_UNEVEN);
+        assert!(sliver
+            .spherical_at(broadside, Technique::SolidAngle)
+            .is_none());
+        // Ball radius 0.58; seen from 12 m.
+        let fat = light([
+            Vec3::new(-0.5, -0.29, 0.0),
+            Vec3::new(0.5, -0.29, 0.0),
+            Vec3::new(0.0, 0.58, 0.0),
+        ]);
+        let far = Vec3::new(0.0, 0.0, 12.0);
+        let w = omega(&fat, far);
+        assert!(
+            MIN_SPHERICAL_SOLID_ANGLE_UNEVEN < w && w < MIN_SPHERICAL_SOLID_ANGLE,
+            "{w}"
+        );
+        assert!(fat.spherical_at(far, Technique::SolidAngle).is_none());
     }
 
     #[test]
