@@ -59,7 +59,8 @@ pub struct BenchRow {
     pub seconds_min: f64,
     pub seconds_max: f64,
     /// Median CPU seconds of the renders over repeats, user and system, all threads (None where
-    /// the system does not say): what `seconds` would be on cores of its own.
+    /// the system does not say): their cost in CPU time, which, unlike `seconds`, does not grow
+    /// while other jobs hold the cores.
     pub cpu_seconds: Option<f64>,
     /// Rays traced per render (mean over repeats).
     pub rays: u64,
