@@ -241,6 +241,7 @@ fn render_writes_exr_png_and_json_summary() {
         "load",
         "bvh build",
         "light build",
+        "(selector ",
         "render",
         "rays",
         "camera samples/s",
@@ -256,6 +257,12 @@ fn render_writes_exr_png_and_json_summary() {
     assert_eq!(summary["stats"]["camera_samples"], 32 * 32 * 4);
     assert_eq!(summary["lights"], 2);
     assert!(summary["seconds"]["render"].as_f64().unwrap() > 0.0);
+    // The selector's build is part of the light build.
+    let (lights, selector) = (
+        summary["seconds"]["light_build"].as_f64().unwrap(),
+        summary["seconds"]["selector_build"].as_f64().unwrap(),
+    );
+    assert!((0.0..=lights).contains(&selector), "{lights} {selector}");
     // The render's CPU seconds, and the same per camera sample.
     let cpu = summary["seconds"]["render_cpu"].as_f64().unwrap();
     assert!(cpu.is_finite() && cpu >= 0.0, "render_cpu {cpu}");

@@ -44,6 +44,9 @@ pub struct Timings {
     pub load: f64,
     pub bvh_build: f64,
     pub light_build: f64,
+    /// The part of `light_build` spent on the selector (light tree or alias table), after the
+    /// lights themselves were made.
+    pub selector_build: f64,
     pub render: f64,
     pub write: f64,
     /// CPU seconds the process used while rendering, user and system, all threads (None where
@@ -148,6 +151,7 @@ fn render_scene(
     let prepared = PreparedScene::new(scene, choice.selector);
     seconds.bvh_build = prepared.bvh_seconds;
     seconds.light_build = prepared.light_seconds;
+    seconds.selector_build = prepared.selector_seconds;
     warn_skipped_primitives(&prepared.scene.stats, &o.scene);
     if prepared.lights.is_empty() {
         eprintln!(
@@ -261,8 +265,9 @@ fn print_summary(s: &RenderSummary) {
     }
     let t = &s.seconds;
     println!(
-        "seconds   load {:.3}  bvh build {:.3}  light build {:.3}  render {:.3}  write {:.3}",
-        t.load, t.bvh_build, t.light_build, t.render, t.write
+        "seconds   load {:.3}  bvh build {:.3}  light build {:.3} (selector {:.3})  render {:.3}  \
+         write {:.3}",
+        t.load, t.bvh_build, t.light_build, t.selector_build, t.render, t.write
     );
     let r = &s.stats.rays;
     println!(

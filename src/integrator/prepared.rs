@@ -24,6 +24,9 @@ pub struct PreparedScene {
     pub bvh_seconds: f64,
     /// Seconds spent building the lights and the selector.
     pub light_seconds: f64,
+    /// The part of `light_seconds` spent building the selector (the light tree, or the alias
+    /// table) once the lights were made.
+    pub selector_seconds: f64,
 }
 
 impl PreparedScene {
@@ -38,10 +41,12 @@ impl PreparedScene {
         let build_lights = |scene: &Scene| {
             let t = Instant::now();
             let mut lights = Lights::from_scene(scene);
+            let made = t.elapsed().as_secs_f64();
             let selector = LightSelector::build(kind, &mut lights);
-            (lights, selector, t.elapsed().as_secs_f64())
+            let total = t.elapsed().as_secs_f64();
+            (lights, selector, (total, total - made))
         };
-        let ((accel, bvh_seconds), (lights, selector, light_seconds)) =
+        let ((accel, bvh_seconds), (lights, selector, (light_seconds, selector_seconds))) =
             if lights_before_geometry(scene.emissive_triangles() as u64) {
                 let lights = build_lights(&scene);
                 (build_accel(&scene), lights)
@@ -58,6 +63,7 @@ impl PreparedScene {
             brdfs,
             bvh_seconds,
             light_seconds,
+            selector_seconds,
         }
     }
 
