@@ -64,6 +64,14 @@ impl Brdf {
         let Some(t) = self.half_vector_terms(n, wo, wi) else {
             return BELOW;
         };
+        if self.is_lambert() {
+            // m = 0 and F_d = s·(…) = 0: the formula below reduces to 1·1·(1/π)·baseColor, the
+            // same bits, without its Fresnel terms.
+            return Evaluation {
+                f: FRAC_1_PI * self.base_color,
+                terms: Some(t),
+            };
+        }
         let schlick = (1.0 - t.v_dot_h).powi(5);
         let f_dielectric = self.specular * (0.04 + 0.96 * schlick);
         let f_metal = self.base_color + (Vec3::ONE - self.base_color) * schlick;
@@ -82,10 +90,17 @@ impl Brdf {
         Evaluation { f, terms: Some(t) }
     }
 
+    /// Whether the material has no specular lobe (metallic = specular = 0): f is baseColor/π,
+    /// and p_s = 0.
+    #[inline]
+    fn is_lambert(&self) -> bool {
+        self.metallic == 0.0 && self.specular == 0.0
+    }
+
     /// The cosines n·wo, n·wi, wo·h and GGX D(h) = α²/(π·((n·h)²(α² − 1) + 1)²) at the half
-    /// vector h = (wo + wi)/|wo + wi|; None when either direction lies below n. D is left 0
-    /// for a material without a specular lobe (metallic = specular = 0), where neither f (its
-    /// Fresnel term is 0) nor the pdf (p_s = 0) reads it.
+    /// vector h = (wo + wi)/|wo + wi|; None when either direction lies below n. For a material
+    /// without a specular lobe h is not formed: wo·h and D are left 1 and 0, and neither f nor
+    /// the pdf (p_s = 0) reads them.
     #[inline]
     fn half_vector_terms(&self, n: Vec3, wo: Vec3, wi: Vec3) -> Option<HalfVectorTerms> {
         let n_dot_v = n.dot(wo);
@@ -93,20 +108,23 @@ impl Brdf {
         if n_dot_v <= 0.0 || n_dot_l <= 0.0 {
             return None;
         }
+        if self.is_lambert() {
+            return Some(HalfVectorTerms {
+                n_dot_v,
+                n_dot_l,
+                v_dot_h: 1.0,
+                d: 0.0,
+            });
+        }
         let h = (wo + wi).normalize();
-        let d = if self.metallic == 0.0 && self.specular == 0.0 {
-            0.0
-        } else {
-            let a2 = self.alpha * self.alpha;
-            let n_dot_h = n.dot(h).clamp(0.0, 1.0);
-            let denom = n_dot_h * n_dot_h * (a2 - 1.0) + 1.0;
-            a2 * FRAC_1_PI / (denom * denom)
-        };
+        let a2 = self.alpha * self.alpha;
+        let n_dot_h = n.dot(h).clamp(0.0, 1.0);
+        let denom = n_dot_h * n_dot_h * (a2 - 1.0) + 1.0;
         Some(HalfVectorTerms {
             n_dot_v,
             n_dot_l,
             v_dot_h: wo.dot(h).clamp(0.0, 1.0),
-            d,
+            d: a2 * FRAC_1_PI / (denom * denom),
         })
     }
 }
@@ -240,8 +258,11 @@ mod tests {
     fn pure_lambert_is_albedo_over_pi() {
         let brdf = Brdf::new(&Material::lambert(Vec3::new(0.2, 0.5, 0.8)));
         let wi = Vec3::new(0.3, 0.1, 0.9).normalize();
+        // Exactly: the lobe-less path returns baseColor/π and the cosine density, as the full
+        // formula gives them with m = F_d = 0.
         let f = brdf.eval(Vec3::Z, Vec3::Z, wi);
-        assert!((f - Vec3::new(0.2, 0.5, 0.8) * FRAC_1_PI).length() < 1e-7);
+        assert_eq!(f, FRAC_1_PI * Vec3::new(0.2, 0.5, 0.8));
+        assert_eq!(brdf.pdf(Vec3::Z, Vec3::Z, wi), wi.z * FRAC_1_PI);
         assert_eq!(brdf.eval(Vec3::Z, Vec3::Z, -wi), Vec3::ZERO);
     }
 
