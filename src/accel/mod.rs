@@ -19,6 +19,7 @@ use crate::sampling::prefetch::prefetch;
 use crate::scene::memory::BVH_PART_MAX_TRIANGLES;
 use crate::scene::Scene;
 use build::build_bvh;
+pub use offset::offset_ray_origin;
 use triangles::Triangles;
 #[cfg(target_arch = "x86_64")]
 use triangles_avx2::{nearest_triangle, RayLanes};
@@ -28,6 +29,7 @@ mod collapse;
 mod cut;
 #[cfg(target_arch = "x86_64")]
 mod node_avx2;
+mod offset;
 #[cfg(target_arch = "x86_64")]
 mod packet_avx2;
 #[cfg(target_arch = "x86_64")]
@@ -344,45 +346,6 @@ fn guarded_ray(origin: Vec3, dir: Vec3, tmax: f32) -> Ray {
         dir.into(),
         NODE_CULL_GUARD,
         tmax + NODE_CULL_GUARD,
-    )
-}
-
-/// Moves a ray origin on a surface off it along the unit normal `n` (toward the side the ray
-/// leaves from), by a few ULPs of the position's magnitude, so the ray cannot hit the surface it
-/// starts on (Wächter & Binder, "A Fast and Robust Method for Avoiding Self-Intersection",
-/// Ray Tracing Gems, 2019): 256 ULPs per component, and for components below 1/32 (where ULPs
-/// vanish) a fixed-point step of 2^-16 · s, with s = 32·max|p_i| clamped to [2^-10, 1]. Their s = 1
-/// (an absolute 1.5e-5 m) is a sixth of a 1e-4 m scene and lets rays start behind nearby walls;
-/// s scales it with the point's own magnitude, down to 1.5e-8 m, still 128 ULPs of the 1e-3 m
-/// guard (`NODE_CULL_GUARD`) the ray is started behind. Works for 1e-4 m and 1e6 m scenes alike.
-#[inline]
-pub fn offset_ray_origin(p: Vec3, n: Vec3) -> Vec3 {
-    const ORIGIN: f32 = 1.0 / 32.0;
-    const FLOAT_SCALE: f32 = 1.0 / 65536.0;
-    const MIN_SCALE: f32 = 1.0 / 1024.0;
-    const INT_SCALE: f32 = 256.0;
-    let offset_int = (INT_SCALE * n).as_ivec3();
-    let nudge = |x: f32, o: i32| {
-        let o = if x < 0.0 { -o } else { o };
-        f32::from_bits((x.to_bits() as i32).wrapping_add(o) as u32)
-    };
-    let p_int = Vec3::new(
-        nudge(p.x, offset_int.x),
-        nudge(p.y, offset_int.y),
-        nudge(p.z, offset_int.z),
-    );
-    let step = FLOAT_SCALE * (p.abs().max_element() / ORIGIN).clamp(MIN_SCALE, 1.0);
-    let pick = |x: f32, xi: f32, nx: f32| {
-        if x.abs() < ORIGIN {
-            x + step * nx
-        } else {
-            xi
-        }
-    };
-    Vec3::new(
-        pick(p.x, p_int.x, n.x),
-        pick(p.y, p_int.y, n.y),
-        pick(p.z, p_int.z, n.z),
     )
 }
 
