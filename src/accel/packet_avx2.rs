@@ -150,6 +150,9 @@ impl Lanes {
     /// never read).
     #[target_feature(enable = "avx2,fma")]
     unsafe fn new(rays: &[Ray]) -> Lanes {
+        if let Ok(full) = <&[Ray; PACKET]>::try_from(rays) {
+            return Lanes::transposed(full);
+        }
         fn lane(rays: &[Ray], f: impl Fn(&Ray) -> f32) -> [f32; PACKET] {
             let mut v = [f(&rays[0]); PACKET];
             for (x, ray) in v.iter_mut().zip(rays) {
@@ -170,6 +173,42 @@ impl Lanes {
             iz: load(lane(rays, |r| r.inv_direction.z)),
             tmin: load(lane(rays, |r| r.tmin)),
             t: load(lane(rays, |r| r.tmax)),
+            b1: _mm256_setzero_ps(),
+            b2: _mm256_setzero_ps(),
+            slot: _mm256_set1_epi32(-1),
+        }
+    }
+
+    /// A full packet's lanes, the same values as `new`'s lane-by-lane copies: each of the rays'
+    /// origin, direction and inverse direction (x, y, z, unused) goes through an 8 × 4
+    /// transpose, and (tmin, tmax) through one of 8 × 2, instead of 88 scalar stores read back as
+    /// vectors.
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn transposed(rays: &[Ray; PACKET]) -> Lanes {
+        const TMIN: usize = std::mem::offset_of!(Ray, tmin);
+        const _: () = assert!(std::mem::offset_of!(Ray, tmax) == TMIN + 4);
+        let [ox, oy, oz] = columns(rows(rays, |r| r.origin.into()));
+        let [dx, dy, dz] = columns(rows(rays, |r| r.direction.into()));
+        let [ix, iy, iz] = columns(rows(rays, |r| r.inv_direction.into()));
+        // (tmin, tmax) in the two low lanes, read as one 8-byte value through a pointer to the
+        // whole ray (the padding after them is not read).
+        let range = |r: &Ray| {
+            let at = (r as *const Ray).cast::<u8>().add(TMIN).cast::<f64>();
+            _mm_castpd_ps(_mm_load_sd(at))
+        };
+        let [tmin, t, _] = columns(rows(rays, range));
+        Lanes {
+            ox,
+            oy,
+            oz,
+            dx,
+            dy,
+            dz,
+            ix,
+            iy,
+            iz,
+            tmin,
+            t,
             b1: _mm256_setzero_ps(),
             b2: _mm256_setzero_ps(),
             slot: _mm256_set1_epi32(-1),
@@ -211,4 +250,27 @@ impl Lanes {
         }
         mask
     }
+}
+
+/// `row` of rays i and i + 4 side by side in one register, for the four i < 4.
+#[target_feature(enable = "avx2,fma")]
+#[inline]
+unsafe fn rows(rays: &[Ray; PACKET], row: impl Fn(&Ray) -> __m128) -> [__m256; 4] {
+    [0, 1, 2, 3].map(|i| {
+        _mm256_insertf128_ps::<1>(_mm256_castps128_ps256(row(&rays[i])), row(&rays[i + 4]))
+    })
+}
+
+/// The first three lanes of `rows`' four-lane rows as eight-lane columns, rays in order (an
+/// 8 × 4 transpose, the two 128-bit halves holding rays 0..4 and 4..8).
+#[target_feature(enable = "avx2,fma")]
+#[inline]
+unsafe fn columns([a, b, c, d]: [__m256; 4]) -> [__m256; 3] {
+    let (ab_low, ab_high) = (_mm256_unpacklo_ps(a, b), _mm256_unpackhi_ps(a, b));
+    let (cd_low, cd_high) = (_mm256_unpacklo_ps(c, d), _mm256_unpackhi_ps(c, d));
+    [
+        _mm256_shuffle_ps::<0b01_00_01_00>(ab_low, cd_low),
+        _mm256_shuffle_ps::<0b11_10_11_10>(ab_low, cd_low),
+        _mm256_shuffle_ps::<0b01_00_01_00>(ab_high, cd_high),
+    ]
 }
