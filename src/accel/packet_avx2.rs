@@ -191,7 +191,8 @@ impl Lanes {
         let [dx, dy, dz] = columns(rows(rays, |r| r.direction.into()));
         let [ix, iy, iz] = columns(rows(rays, |r| r.inv_direction.into()));
         // (tmin, tmax) in the two low lanes, read as one 8-byte value through a pointer to the
-        // whole ray (the padding after them is not read).
+        // whole ray (the padding after them is not read). SAFETY: bytes TMIN .. TMIN + 8 of a
+        // ray are its tmin and tmax (the assertion above).
         let range = |r: &Ray| {
             let at = (r as *const Ray).cast::<u8>().add(TMIN).cast::<f64>();
             _mm_castpd_ps(_mm_load_sd(at))
