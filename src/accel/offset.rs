@@ -29,8 +29,8 @@ fn fixed_step(p: Vec3) -> f32 {
 }
 
 /// `p` moved off its surface along the unit normal `n` (see the module header), the three
-/// components at once in SSE2 lanes: the same bits as [`offset_one_by_one`] for every `p` and
-/// every `n` with |256 n_i| < 2³¹ (a unit normal, or NaN components, which move nothing).
+/// components at once in SSE2 lanes: the same bits as `offset_one_by_one` for every `p` and every
+/// `n` whose components are NaN or have |256 n_i| < 2³¹ (every unit normal).
 #[cfg(target_arch = "x86_64")]
 #[inline]
 pub fn offset_ray_origin(p: Vec3, n: Vec3) -> Vec3 {
@@ -58,7 +58,7 @@ pub fn offset_ray_origin(p: Vec3, n: Vec3) -> Vec3 {
     }
 }
 
-/// [`offset_one_by_one`] off x86-64.
+/// `offset_one_by_one` off x86-64.
 #[cfg(not(target_arch = "x86_64"))]
 #[inline]
 pub fn offset_ray_origin(p: Vec3, n: Vec3) -> Vec3 {
