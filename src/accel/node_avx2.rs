@@ -68,12 +68,7 @@ impl NodeRay {
         let mut near = [0; 3];
         let mut far = [0; 3];
         for axis in 0..3 {
-            let (lower, upper) = (2 * axis, 2 * axis + 1);
-            (near[axis], far[axis]) = if negative[axis] {
-                (upper, lower)
-            } else {
-                (lower, upper)
-            };
+            (near[axis], far[axis]) = near_and_far(axis, negative[axis]);
         }
         NodeRay {
             origin: o.into(),
@@ -82,6 +77,19 @@ impl NodeRay {
             near,
             far,
         }
+    }
+}
+
+/// The indices in `ChildPlanes` of a child's near and far planes along `axis` for rays that run
+/// toward −axis (`negative`) or not: the lower plane is near unless they run toward −axis.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn near_and_far(axis: usize, negative: bool) -> (usize, usize) {
+    let (lower, upper) = (2 * axis, 2 * axis + 1);
+    if negative {
+        (upper, lower)
+    } else {
+        (lower, upper)
     }
 }
 
@@ -145,12 +153,7 @@ impl NodePacket {
             if _mm256_movemask_ps(usable) != 0xff || !one_way(d_negative) || !one_way(s_negative) {
                 return None;
             }
-            let (lower, upper) = (2 * axis, 2 * axis + 1);
-            (packet.near[axis], packet.far[axis]) = if d_negative != 0 {
-                (upper, lower)
-            } else {
-                (lower, upper)
-            };
+            (packet.near[axis], packet.far[axis]) = near_and_far(axis, d_negative != 0);
             let (o_lo, o_hi) = (least(o), greatest(o));
             (packet.origin_near[axis], packet.origin_far[axis]) = if s_negative != 0 {
                 (o_lo, o_hi)

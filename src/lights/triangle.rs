@@ -361,6 +361,22 @@ impl TriangleLight {
 mod tests {
     use super::*;
 
+    /// The untextured light of radiance 1 over the triangle p0, p0 + e1, p0 + e2 (front face
+    /// along e1 × e2; none of them degenerate).
+    fn white_light(p0: Vec3, e1: Vec3, e2: Vec3, two_sided: bool) -> TriangleLight {
+        TriangleLight {
+            p0,
+            e1,
+            e2,
+            normal: e1.cross(e2).normalize(),
+            area: 0.5 * e1.cross(e2).length(),
+            radiance: Vec3::ONE,
+            two_sided,
+            textured: false,
+            triangle: 0,
+        }
+    }
+
     #[test]
     fn power_is_pi_area_luminance_doubled_when_two_sided() {
         let mut l = TriangleLight {
@@ -396,20 +412,10 @@ mod tests {
             let p0 = Vec3::new(u(), u(), u()) * 4.0;
             let e1 = (Vec3::new(u(), u(), u()) - 0.5) * size;
             let e2 = (Vec3::new(u(), u(), u()) - 0.5) * size * u();
-            let Some(n) = e1.cross(e2).try_normalize() else {
+            if e1.cross(e2).try_normalize().is_none() {
                 continue;
-            };
-            let light = TriangleLight {
-                p0,
-                e1,
-                e2,
-                normal: n,
-                area: 0.5 * e1.cross(e2).length(),
-                radiance: Vec3::ONE,
-                two_sided: true,
-                textured: false,
-                triangle: 0,
-            };
+            }
+            let light = white_light(p0, e1, e2, true);
             let dir = (Vec3::new(u(), u(), u()) - 0.5).normalize_or(Vec3::X);
             let p = p0 + dir * size * 10f32.powf(3.0 * u());
             let Some(view) = SphericalTriangle::new(p, light.vertices()) else {
@@ -448,20 +454,7 @@ mod tests {
     /// fat triangle 20 radii away with Ω between the two thresholds (≈ 3e-3 sr) are area-sampled.
     #[test]
     fn uneven_views_keep_solid_angle_sampling_down_to_the_lower_threshold() {
-        let light = |v: [Vec3; 3]| {
-            let (e1, e2) = (v[1] - v[0], v[2] - v[0]);
-            TriangleLight {
-                p0: v[0],
-                e1,
-                e2,
-                normal: e1.cross(e2).normalize(),
-                area: 0.5 * e1.cross(e2).length(),
-                radiance: Vec3::ONE,
-                two_sided: true,
-                textured: false,
-                triangle: 0,
-            }
-        };
+        let light = |v: [Vec3; 3]| white_light(v[0], v[1] - v[0], v[2] - v[0], true);
         let omega = |l: &TriangleLight, p: Vec3| {
             SphericalTriangle::new(p, l.vertices())
                 .unwrap()
@@ -538,18 +531,7 @@ mod tests {
             Vec3::new(0.5, 3.5, 0.0),
         );
         // Winding so that the front face looks down at the receivers below it.
-        let (e1, e2) = (c - a, b - a);
-        let light = TriangleLight {
-            p0: a,
-            e1,
-            e2,
-            normal: e1.cross(e2).normalize(),
-            area: 0.5 * e1.cross(e2).length(),
-            radiance: Vec3::ONE,
-            two_sided: false,
-            textured: false,
-            triangle: 0,
-        };
+        let light = white_light(a, c - a, b - a, false);
         assert!(light.normal.z < 0.0);
         let mut rng = PixelRng::new(3, 4);
         for (h, foot) in [
