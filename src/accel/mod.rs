@@ -69,14 +69,15 @@ pub struct Hit {
 }
 
 pub struct Accel {
+    /// obvhs's tree: its leaf order, and its nodes where obvhs's walk reads them (no AVX2).
     bvh: CwBvh,
     /// Triangles in BVH leaf order, so that a leaf's primitive id indexes them directly.
     triangles: Triangles,
     /// Whether the CPU has what the AVX2 walk is compiled for (`has_simd_walk`).
     avx2: bool,
-    /// The child boxes of each node as f32 planes, for the AVX2 walk (empty without it).
+    /// The nodes as the AVX2 walk reads them (empty without it).
     #[cfg(target_arch = "x86_64")]
-    planes: Vec<planes::ChildPlanes>,
+    walk_nodes: Vec<planes::WalkNode>,
 }
 
 impl Accel {
@@ -87,12 +88,19 @@ impl Accel {
     /// [`build`](Self::build) with parts of at most `part_max` triangles (see `build.rs`).
     fn build_in_parts(scene: &Scene, part_max: usize) -> Accel {
         let avx2 = has_simd_walk();
-        let bvh = build_bvh(scene, part_max, !avx2);
+        #[allow(unused_mut)]
+        let mut bvh = build_bvh(scene, part_max, !avx2);
         let prims = &bvh.primitive_indices;
         let triangles = Triangles::new(prims.len(), |k| gathered_positions(scene, prims, k));
         #[cfg(target_arch = "x86_64")]
-        let planes = if avx2 {
-            planes::child_planes(&bvh.nodes)
+        let walk_nodes = if avx2 {
+            let walk_nodes = planes::walk_nodes(&bvh.nodes);
+            // obvhs's nodes are read by its own walk alone, which never runs beside the AVX2
+            // walk but in unit tests, which compare the two on one tree.
+            if !cfg!(test) {
+                bvh.nodes = Vec::new();
+            }
+            walk_nodes
         } else {
             Vec::new()
         };
@@ -101,18 +109,18 @@ impl Accel {
             triangles,
             avx2,
             #[cfg(target_arch = "x86_64")]
-            planes,
+            walk_nodes,
         }
     }
 
-    /// Bytes held by the BVH nodes (and their planes), index map and reordered triangles.
+    /// Bytes held by the BVH nodes, index map and reordered triangles.
     pub fn bytes(&self) -> usize {
         #[cfg(target_arch = "x86_64")]
-        let planes = std::mem::size_of_val(self.planes.as_slice());
+        let walk_nodes = std::mem::size_of_val(self.walk_nodes.as_slice());
         #[cfg(not(target_arch = "x86_64"))]
-        let planes = 0;
+        let walk_nodes = 0;
         std::mem::size_of_val(self.bvh.nodes.as_slice())
-            + planes
+            + walk_nodes
             + std::mem::size_of_val(self.bvh.primitive_indices.as_slice())
             + self.triangles.bytes()
     }
@@ -194,8 +202,7 @@ impl Accel {
         let node_ray = node_avx2::NodeRay::new(ray);
         let mut walk_ray = *ray;
         walk_avx2::walk(
-            &self.bvh.nodes,
-            &self.planes,
+            &self.walk_nodes,
             &mut walk_ray,
             |ray, planes, _| node_avx2::test_children(planes, &node_ray, ray.tmax),
             |ray| ray.tmax,

@@ -94,7 +94,7 @@ impl Accel {
             }
             false
         };
-        let (nodes, planes) = (&self.bvh.nodes, &self.planes);
+        let nodes = &self.walk_nodes;
         let reach = |packet: &Packet| packet.reach;
         let lanes = &packet.lanes;
         let bounds = node_avx2::NodePacket::new(
@@ -108,7 +108,7 @@ impl Accel {
                 let (tmax, reach) = (packet.lanes.t, packet.reach);
                 node_avx2::test_packet(planes, &bounds, tmax, reach, imask)
             };
-            walk_avx2::walk(nodes, planes, &mut packet, children, reach, leaf);
+            walk_avx2::walk(nodes, &mut packet, children, reach, leaf);
         } else {
             // Ray by ray: the children any ray hits, at the least entry among those rays; the
             // boxes are loaded once for all the rays. Lanes past the last ray repeat it. A
@@ -131,7 +131,7 @@ impl Accel {
                 }
                 (hit, entry)
             };
-            walk_avx2::walk(nodes, planes, &mut packet, children, reach, leaf);
+            walk_avx2::walk(nodes, &mut packet, children, reach, leaf);
         }
         let Packet { lanes, rays, .. } = packet;
         let mut slot = [0i32; PACKET];

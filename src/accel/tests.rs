@@ -149,7 +149,8 @@ fn the_avx2_node_test_gives_obvhs_masks_but_for_grazed_children() {
     let scene = triangle_soup(&mut u, 2000, 0.8);
     let accel = Accel::build(&scene);
     let (mut compared, mut nonzero, mut grazed) = (0, 0, 0);
-    for (node, planes) in accel.bvh.nodes.iter().zip(&accel.planes) {
+    for (node, walk_node) in accel.bvh.nodes.iter().zip(&accel.walk_nodes) {
+        let planes = &walk_node.planes;
         // Rays toward a random point of the node's box (most hit some child), every third
         // along an axis instead (0 · ∞ in the slab test), with random lengths.
         let extent = Vec3::from(node.compute_extent()) * 255.0;
@@ -399,7 +400,8 @@ fn child_planes_round_the_decoded_boxes_outward() {
         let scene = triangle_soup(&mut u, 1500, size);
         let accel = Accel::build(&scene);
         let nodes = &accel.bvh.nodes;
-        for (node, planes) in nodes.iter().zip(planes::child_planes(nodes)) {
+        for (node, walk_node) in nodes.iter().zip(planes::walk_nodes(nodes)) {
+            let planes = walk_node.planes;
             let codes = [
                 node.child_min_x,
                 node.child_max_x,

@@ -22,9 +22,7 @@
 use std::arch::x86_64::*;
 use std::mem::MaybeUninit;
 
-use obvhs::cwbvh::node::CwBvhNode;
-
-use super::planes::ChildPlanes;
+use super::planes::{ChildPlanes, WalkNode};
 
 /// Stack entries: a node's visit pops one entry and pushes at most eight (its inner children),
 /// so a walk through a tree d levels deep holds at most 7·d + 1; 512 (4 KiB, left
@@ -32,7 +30,7 @@ use super::planes::ChildPlanes;
 /// newest entries rather than writing past the end, as obvhs's stack does.
 const STACK: usize = 512;
 
-/// Walks the BVH of `nodes` (with their child boxes as f32 `planes`, one per node) for a query
+/// Walks the BVH of `nodes` (obvhs's, with their child boxes as f32 planes) for a query
 /// `state` (one ray, or the rays of a packet): `children(state, planes, imask)` gives the hit
 /// lanes and entry distances of a node's children from its planes and its mask of inner
 /// children (for a packet: at least the lanes any ray hits, at no more than the least entry
@@ -47,14 +45,13 @@ const STACK: usize = 512;
 #[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,lzcnt")]
 #[inline]
 pub(super) unsafe fn walk<S>(
-    nodes: &[CwBvhNode],
-    planes: &[ChildPlanes],
+    nodes: &[WalkNode],
     state: &mut S,
     children: impl Fn(&S, &ChildPlanes, u32) -> (__m256, __m256),
     reach: impl Fn(&S) -> f32,
     mut leaf: impl FnMut(&mut S, u32, u32) -> bool,
 ) {
-    if nodes.is_empty() || planes.len() != nodes.len() {
+    if nodes.is_empty() {
         return;
     }
     let mut stack: [MaybeUninit<(u32, f32)>; STACK] = [MaybeUninit::uninit(); STACK];
@@ -63,8 +60,7 @@ pub(super) unsafe fn walk<S>(
     loop {
         let node = &nodes[index as usize];
         let imask = node.imask as u32;
-        // SAFETY: `planes` and `nodes` have the same length, and `nodes[index]` exists.
-        let (hit, entry) = children(state, planes.get_unchecked(index as usize), imask);
+        let (hit, entry) = children(state, &node.planes, imask);
         let hits = _mm256_movemask_ps(hit) as u32;
         let mut inner = hits & imask;
         // Leaf children (an empty slot has meta 0: no triangles): the low five bits of a leaf's
@@ -80,11 +76,11 @@ pub(super) unsafe fn walk<S>(
             let meta = node.child_meta[slot] as u32;
             triangles |= ((1 << (meta >> 5).count_ones()) - 1) << (meta & 0b1_1111);
         }
-        if triangles != 0 && leaf(state, node.primitive_base_idx, triangles) {
+        if triangles != 0 && leaf(state, node.primitive_base, triangles) {
             return;
         }
         // A child's node follows the node's inner children in lower slots.
-        let child = |slot: u32| node.child_base_idx + _bzhi_u32(imask, slot).count_ones();
+        let child = |slot: u32| node.child_base + _bzhi_u32(imask, slot).count_ones();
         let mut entries = [0.0f32; 8];
         _mm256_storeu_ps(entries.as_mut_ptr(), entry);
         // The next node is chosen from the node test alone and kept only if still within
@@ -110,7 +106,7 @@ pub(super) unsafe fn walk<S>(
                     (first, t_first, second, t_second)
                 };
                 let far = child(far);
-                prefetch(nodes, planes, far);
+                prefetch(nodes, far);
                 // SAFETY: `len` stays below `STACK`.
                 *stack.get_unchecked_mut(len) = MaybeUninit::new((far, t_far));
                 len = (len + 1).min(STACK - 1);
@@ -126,7 +122,7 @@ pub(super) unsafe fn walk<S>(
                     inner &= inner - 1;
                     let node = child(slot);
                     let t = entries[slot as usize];
-                    prefetch(nodes, planes, node);
+                    prefetch(nodes, node);
                     // Insertion by falling distance: the nearest ends on top.
                     let mut k = len;
                     // SAFETY: bottom ≤ k ≤ len < STACK.
@@ -158,16 +154,12 @@ pub(super) unsafe fn walk<S>(
     }
 }
 
-/// Starts loading the node at `index` (its 80 bytes span at most two cache lines) and its
-/// planes (three).
+/// Starts loading the node at `index` (four cache lines).
 #[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,lzcnt")]
 #[inline]
-unsafe fn prefetch(nodes: &[CwBvhNode], planes: &[ChildPlanes], index: u32) {
+unsafe fn prefetch(nodes: &[WalkNode], index: u32) {
     let ahead = nodes.as_ptr().wrapping_add(index as usize).cast::<i8>();
-    _mm_prefetch::<_MM_HINT_T0>(ahead);
-    _mm_prefetch::<_MM_HINT_T0>(ahead.wrapping_add(64));
-    let ahead = planes.as_ptr().wrapping_add(index as usize).cast::<i8>();
-    for line in 0..3 {
+    for line in 0..4 {
         _mm_prefetch::<_MM_HINT_T0>(ahead.wrapping_add(64 * line));
     }
 }
