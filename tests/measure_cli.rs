@@ -117,6 +117,27 @@ fn bench_reports_every_configuration_and_reuses_its_cached_reference() {
         let [lo, hi] = [0, 1].map(|i| row["mse_interval"][i].as_f64().unwrap());
         assert!(lo <= row["mse"].as_f64().unwrap() && row["mse"].as_f64().unwrap() <= hi);
     }
+    // CPU-time efficiency: 1 / (relMSE × CPU seconds), and its ratio to the baseline row's at
+    // the same spp (the row whose wall-time ratio is 1).
+    let f = |row: &serde_json::Value, field: &str| row[field].as_f64().unwrap();
+    for row in rows {
+        let expected = 1.0 / (f(row, "relmse") * f(row, "cpu_seconds"));
+        let got = f(row, "efficiency_cpu");
+        assert!(
+            (got / expected - 1.0).abs() < 1e-12,
+            "{got} vs {expected} in {row}"
+        );
+        let baseline = rows
+            .iter()
+            .find(|b| b["spp"] == row["spp"] && f(b, "efficiency_ratio") == 1.0)
+            .expect("a baseline row at each spp");
+        let ratio = f(row, "efficiency_cpu_ratio");
+        let expected = got / f(baseline, "efficiency_cpu");
+        assert!(
+            (ratio / expected - 1.0).abs() < 1e-12,
+            "{ratio} vs {expected} in {row}"
+        );
+    }
     assert!(rows
         .iter()
         .any(|r| r["selector"] == "uniform" && r["k"] == 4 && r["spp"] == 4));

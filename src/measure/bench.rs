@@ -6,8 +6,11 @@
 //!                                 pixels and over lit-surface pixels, raw and corrected for
 //!                                 the reference's noise (see `errors`)
 //!     variance                    mean over pixels and channels of s²/n (no reference needed)
-//!     efficiency                  1 / (relMSE × seconds), and 1 / (variance × seconds)
-//! with seconds the median render time over repeats. A configuration is flagged heavy-tailed
+//!     efficiency                  1 / (relMSE × seconds), and 1 / (variance × seconds); and
+//!                                 1 / (relMSE × CPU seconds), which does not move while
+//!                                 other jobs hold the cores
+//! with seconds the median render time over repeats (CPU seconds: the median of the renders'
+//! CPU time, all threads). A configuration is flagged heavy-tailed
 //! when its MSE (all or lit pixels) does not fall from one spp to the next, or one pixel holds
 //! more than `WORST_PIXEL_SHARE_FLAG` of the squared error (lit pixels when known). Images
 //! rendered elsewhere enter as external rows measured the same way.
@@ -81,10 +84,14 @@ pub struct BenchRow {
     pub efficiency: f64,
     /// 1 / (variance × seconds).
     pub efficiency_variance: Option<f64>,
+    /// 1 / (relMSE × CPU seconds) (None where the system does not give CPU time).
+    pub efficiency_cpu: Option<f64>,
     /// Baseline MSE / this MSE (> 1: less error than the baseline).
     pub mse_ratio: f64,
     /// This efficiency / the baseline's (> 1: more accuracy per second).
     pub efficiency_ratio: f64,
+    /// This CPU-time efficiency / the baseline's (> 1: more accuracy per CPU second).
+    pub efficiency_cpu_ratio: Option<f64>,
     /// The label of the configuration the ratios compare against.
     pub baseline: String,
     /// Clamped samples: the estimate is biased.
@@ -288,8 +295,10 @@ fn aggregate(e: EstimatorChoice, plan: &BenchPlan, runs: Vec<Run>, errors: Error
         variance,
         efficiency: 1.0 / (relmse * seconds),
         efficiency_variance: variance.map(|v| 1.0 / (v * seconds)),
+        efficiency_cpu: cpu_seconds.map(|c| 1.0 / (relmse * c)),
         mse_ratio: 1.0,
         efficiency_ratio: 1.0,
+        efficiency_cpu_ratio: cpu_seconds.map(|_| 1.0),
         baseline: String::new(),
         biased: plan.clamp.is_some(),
         clamp: plan.clamp,
@@ -328,10 +337,10 @@ pub fn apply_baseline(rows: &mut [BenchRow], baseline: Option<&str>) -> Result<(
     let wanted = baseline.map_or_else(|| estimator_label(&first.estimator()), str::to_owned);
     let matches =
         |row: &BenchRow| row.label() == wanted || estimator_label(&row.estimator()) == wanted;
-    let candidates: Vec<(u32, f64, f64, String)> = rows
+    let candidates: Vec<(u32, f64, f64, Option<f64>, String)> = rows
         .iter()
         .filter(|r| matches(r))
-        .map(|r| (r.spp, r.mse, r.efficiency, r.label()))
+        .map(|r| (r.spp, r.mse, r.efficiency, r.efficiency_cpu, r.label()))
         .collect();
     let Some(fallback) = candidates.first().cloned() else {
         let known: Vec<String> = rows.iter().map(BenchRow::label).collect();
@@ -342,7 +351,7 @@ pub fn apply_baseline(rows: &mut [BenchRow], baseline: Option<&str>) -> Result<(
     };
     let pinned = split_baseline(&wanted).1.is_some();
     for row in rows.iter_mut() {
-        let (_, mse, eff, label) = if pinned {
+        let (_, mse, eff, eff_cpu, label) = if pinned {
             fallback.clone()
         } else {
             candidates
@@ -353,6 +362,7 @@ pub fn apply_baseline(rows: &mut [BenchRow], baseline: Option<&str>) -> Result<(
         };
         row.mse_ratio = mse / row.mse;
         row.efficiency_ratio = row.efficiency / eff;
+        row.efficiency_cpu_ratio = row.efficiency_cpu.zip(eff_cpu).map(|(e, b)| e / b);
         row.baseline = label;
     }
     Ok(())

@@ -12,7 +12,7 @@ use crate::image::write_atomically;
 
 /// Column headers and one row's cells, shared by the table, CSV and Markdown; the table
 /// shows only the columns marked for it.
-const HEADERS: [(&str, bool); 32] = [
+const HEADERS: [(&str, bool); 34] = [
     ("config", true),
     ("spp", true),
     ("seconds", true),
@@ -38,8 +38,10 @@ const HEADERS: [(&str, bool); 32] = [
     ("variance", false),
     ("eff 1/(relMSE s)", true),
     ("eff 1/(var s)", false),
+    ("eff 1/(relMSE cpu s)", false),
     ("MSE ratio", true),
     ("eff ratio", true),
+    ("cpu eff ratio", true),
     ("fireflies", false),
     ("max sample", false),
     ("heavy tail", true),
@@ -47,7 +49,7 @@ const HEADERS: [(&str, bool); 32] = [
     ("external", false),
 ];
 
-fn cells(row: &ReportRow) -> [String; 32] {
+fn cells(row: &ReportRow) -> [String; 34] {
     let e = |x: f64| format!("{x:.3e}");
     let opt = |x: Option<f64>| x.map_or("-".into(), e);
     let ends = |i: Option<[f64; 2]>| i.map_or(("-".into(), "-".into()), |[a, b]| (e(a), e(b)));
@@ -103,8 +105,11 @@ fn cells(row: &ReportRow) -> [String; 32] {
             opt(r.variance),
             e(r.efficiency),
             opt(r.efficiency_variance),
+            opt(r.efficiency_cpu),
             format!("{:.3}", r.mse_ratio),
             format!("{:.3}", r.efficiency_ratio),
+            r.efficiency_cpu_ratio
+                .map_or("-".into(), |x| format!("{x:.3}")),
             r.fireflies.to_string(),
             e(r.max_sample_luminance),
             yes(r.heavy_tail.is_some()),
@@ -136,6 +141,8 @@ fn cells(row: &ReportRow) -> [String; 32] {
             p,
             "-".into(),
             opt(x.efficiency),
+            "-".into(),
+            "-".into(),
             "-".into(),
             "-".into(),
             "-".into(),
