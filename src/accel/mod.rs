@@ -88,21 +88,25 @@ impl Accel {
     /// [`build`](Self::build) with parts of at most `part_max` triangles (see `build.rs`).
     fn build_in_parts(scene: &Scene, part_max: usize) -> Accel {
         let avx2 = has_simd_walk();
-        #[allow(unused_mut)]
-        let mut bvh = build_bvh(scene, part_max, !avx2);
+        let bvh = build_bvh(scene, part_max, !avx2);
         let prims = &bvh.primitive_indices;
         let triangles = Triangles::new(prims.len(), |k| gathered_positions(scene, prims, k));
         #[cfg(target_arch = "x86_64")]
         let walk_nodes = if avx2 {
-            let walk_nodes = planes::walk_nodes(&bvh.nodes);
-            // obvhs's nodes are read by its own walk alone, which never runs beside the AVX2
-            // walk but in unit tests, which compare the two on one tree.
-            if !cfg!(test) {
-                bvh.nodes = Vec::new();
-            }
-            walk_nodes
+            planes::walk_nodes(&bvh.nodes)
         } else {
             Vec::new()
+        };
+        // obvhs's nodes are read by its own walk alone, which runs beside the AVX2 walk only in
+        // unit tests, which compare the two on one tree.
+        #[cfg(target_arch = "x86_64")]
+        let bvh = if avx2 && !cfg!(test) {
+            CwBvh {
+                nodes: Vec::new(),
+                ..bvh
+            }
+        } else {
+            bvh
         };
         Accel {
             bvh,
