@@ -23,8 +23,9 @@ use gltf::mesh::Mode;
 /// Resident memory of the program with a tiny scene (cornell: 6.8 MB peak).
 const BASE_BYTES: u64 = 7 << 20;
 /// Scene triangle (76 B) and its texture coordinates (24 B, kept only where a material has a
-/// texture but counted here always) + the geometry BVH's nodes, their child boxes as f32 planes,
-/// primitive index and 36-byte test triangle (70 B on the 1M city), per triangle.
+/// texture but counted here always) + the geometry BVH's nodes as the walk reads them (child
+/// boxes as f32 planes with obvhs's indices, 256 B a node), primitive index and 36-byte test
+/// triangle (68 B on the 1M city, `Accel::bytes`), per triangle.
 pub const BYTES_PER_TRIANGLE: u64 = 170;
 /// One `Light` (72 B) per emissive triangle.
 pub const BYTES_PER_LIGHT: u64 = 72;
