@@ -171,6 +171,47 @@ fn bench_reports_every_configuration_and_reuses_its_cached_reference() {
 }
 
 #[test]
+fn a_cpu_time_budget_spends_at_least_that_much_cpu_time() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = cornell_copy(dir.path());
+    let j = dir.path().join("b.json");
+    let budget = 0.2;
+    let o = manylights(&[
+        "bench",
+        scene.to_str().unwrap(),
+        "--width",
+        "8",
+        "--time-budget",
+        &budget.to_string(),
+        "--budget-clock",
+        "cpu",
+        "--repeat",
+        "2",
+        "--reference-spp",
+        "16",
+        "--json",
+        j.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("equal CPU time 0.2 s each"),
+        "{}",
+        stderr(&o)
+    );
+    let rows = json(&j);
+    for row in rows.as_array().unwrap() {
+        assert_eq!(row["budget_clock"], "cpu", "{row}");
+        assert_eq!(row["time_budget"].as_f64(), Some(budget), "{row}");
+        // The renders' CPU time is read around the passes, whose clock starts inside.
+        let cpu = row["cpu_seconds"].as_f64().unwrap();
+        assert!(
+            cpu >= budget,
+            "{cpu} CPU seconds for a budget of {budget} in {row}"
+        );
+    }
+}
+
+#[test]
 fn clamped_bench_rows_are_marked_biased() {
     let dir = tempfile::tempdir().unwrap();
     let scene = cornell_copy(dir.path());

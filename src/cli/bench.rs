@@ -18,9 +18,11 @@ use crate::measure::bench::{
     apply_baseline, estimator_label, external_row, flag_heavy_tails, report_rows, run,
     split_baseline, target_answers, BenchPlan, BenchRow, ExternalRow, TargetAnswer,
 };
+use crate::measure::cpu_time::process_cpu_seconds;
 use crate::measure::errors::Against;
 use crate::measure::fit::{fit_loglog, EXTRAPOLATION_FACTOR, MAX_INTERVAL_RATIO};
 use crate::measure::plot::{plot_relmse_vs_seconds, write_error_image};
+use crate::measure::progressive::Clock;
 use crate::measure::report::{csv, markdown, table, write_json, write_text};
 use crate::measure::EstimatorChoice;
 
@@ -52,6 +54,10 @@ pub struct BenchArgs {
     /// (instead of --spp).
     #[arg(long, conflicts_with = "spp")]
     pub time_budget: Option<f64>,
+    /// The clock --time-budget counts on: wall seconds, or the process's CPU seconds (all
+    /// threads), which other jobs on the machine do not move.
+    #[arg(long, value_enum, default_value_t = Clock::Wall, requires = "time_budget")]
+    pub budget_clock: Clock,
     /// Print the seconds each configuration needs to reach this relMSE (a 95% interval, with a
     /// point estimate only when it is trustworthy), and the cheapest.
     #[arg(long)]
@@ -242,6 +248,9 @@ pub fn run_bench(args: &BenchArgs) -> anyhow::Result<()> {
         }
     }
     check_positive("--time-budget", args.time_budget)?;
+    if args.budget_clock == Clock::Cpu && process_cpu_seconds().is_none() {
+        return Err(UsageError("--budget-clock cpu: this system gives no CPU time".into()).into());
+    }
     check_positive("--target-relmse", args.target_relmse)?;
     let o = &args.options;
     let plan = BenchPlan {
@@ -255,6 +264,7 @@ pub fn run_bench(args: &BenchArgs) -> anyhow::Result<()> {
         seed: o.seed,
         clamp: o.clamp,
         time_budget: args.time_budget,
+        budget_clock: args.budget_clock,
     };
     if let Some(b) = &args.baseline {
         let (config, _) = split_baseline(b);
@@ -293,7 +303,10 @@ pub fn run_bench(args: &BenchArgs) -> anyhow::Result<()> {
         setup.width,
         setup.height,
         plan.time_budget
-            .map_or(String::new(), |b| format!(", equal time {b} s each"))
+            .map_or(String::new(), |b| match plan.budget_clock {
+                Clock::Wall => format!(", equal time {b} s each"),
+                Clock::Cpu => format!(", equal CPU time {b} s each (all threads)"),
+            })
     );
     let mut done = 0;
     let mut rows = pool.install(|| {

@@ -24,7 +24,7 @@ use super::cpu_time::{cpu_seconds_between, process_cpu_seconds};
 use super::errors::{not_falling, Against, ErrorAccumulator, Errors, WORST_PIXEL_SHARE_FLAG};
 use super::fit::{cost_to_target, TargetCost, TargetPoint};
 use super::metrics::compare;
-use super::progressive::{render_progressive, Budget};
+use super::progressive::{render_progressive, Budget, Clock};
 use super::{mean_image, mean_variance, EstimatorChoice, SceneSetup};
 use crate::image::RgbImage;
 use crate::integrator::{render, PreparedScene, RenderOptions, Strategy};
@@ -41,8 +41,10 @@ pub struct BenchPlan {
     pub repeat: u32,
     pub seed: u64,
     pub clamp: Option<f32>,
-    /// Equal-time mode: passes of 1 spp until this many seconds are spent.
+    /// Equal-time mode: passes of 1 spp until this many seconds are spent...
     pub time_budget: Option<f64>,
+    /// ...on this clock.
+    pub budget_clock: Clock,
 }
 
 /// One configuration's results, aggregated over its repeats.
@@ -99,6 +101,8 @@ pub struct BenchRow {
     pub clamp: Option<f32>,
     pub repeats: u32,
     pub time_budget: Option<f64>,
+    /// The clock the time budget was counted on (None without one).
+    pub budget_clock: Option<Clock>,
     pub nan_samples: u64,
     pub inf_samples: u64,
     /// Camera samples above `FIREFLY_FACTOR` × their pixel's mean luminance, over all repeats.
@@ -224,6 +228,7 @@ pub fn run(
                                     &setup.camera,
                                     &opts,
                                     Budget::Seconds(b),
+                                    plan.budget_clock,
                                     1,
                                     |_, _| {},
                                 );
@@ -304,6 +309,7 @@ fn aggregate(e: EstimatorChoice, plan: &BenchPlan, runs: Vec<Run>, errors: Error
         clamp: plan.clamp,
         repeats: runs.len() as u32,
         time_budget: plan.time_budget,
+        budget_clock: plan.time_budget.map(|_| plan.budget_clock),
         nan_samples: runs.iter().map(|x| x.nan).sum(),
         inf_samples: runs.iter().map(|x| x.inf).sum(),
         fireflies: runs.iter().map(|x| x.fireflies).sum(),

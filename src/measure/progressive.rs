@@ -6,6 +6,7 @@
 
 use std::time::Instant;
 
+use super::cpu_time::{cpu_seconds_between, process_cpu_seconds};
 use crate::film::Film;
 use crate::integrator::{render, Estimator, RenderOptions, RenderStats};
 use crate::scene::Camera;
@@ -17,6 +18,27 @@ pub enum Budget {
     Spp(u32),
     /// Passes until this many seconds have elapsed (at least one pass).
     Seconds(f64),
+}
+
+/// The clock a time budget is counted on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Clock {
+    /// Wall-clock seconds.
+    Wall,
+    /// The process's CPU seconds, user and system, all threads: other jobs holding the cores
+    /// do not move it.
+    Cpu,
+}
+
+/// A reading of `clock` in seconds since this call.
+pub fn stopwatch(clock: Clock) -> impl FnMut() -> f64 {
+    let (start, cpu) = (Instant::now(), process_cpu_seconds());
+    move || match clock {
+        Clock::Cpu => cpu_seconds_between(cpu, process_cpu_seconds())
+            .expect("CPU budgets are refused where the system gives no CPU time"),
+        Clock::Wall => start.elapsed().as_secs_f64(),
+    }
 }
 
 /// What the pass loop did.
@@ -96,13 +118,23 @@ pub fn render_progressive(
     camera: &Camera,
     opts: &RenderOptions,
     budget: Budget,
+    clock: Clock,
     pass_spp: u32,
     mut on_pass: impl FnMut(PassCount, f64),
 ) -> Progressive {
-    resume_progressive(estimator, camera, opts, budget, pass_spp, None, |p| {
+    let on_pass = |p: &Progressive| {
         on_pass(p.count, p.seconds);
         Flow::Continue
-    })
+    };
+    progressive(
+        estimator,
+        camera,
+        opts,
+        (budget, clock),
+        pass_spp,
+        None,
+        on_pass,
+    )
 }
 
 /// [`render_progressive`] continued from `from` (the state an interrupted run saved after a
@@ -118,10 +150,26 @@ pub fn resume_progressive(
     budget: Budget,
     pass_spp: u32,
     from: Option<Progressive>,
+    after_pass: impl FnMut(&Progressive) -> Flow,
+) -> Progressive {
+    let limit = (budget, Clock::Wall);
+    progressive(estimator, camera, opts, limit, pass_spp, from, after_pass)
+}
+
+/// [`resume_progressive`] with a time budget counted on `clock`. A run resumed from an earlier
+/// one adds that one's seconds only to a wall-clock budget: they are wall seconds.
+fn progressive(
+    estimator: &Estimator,
+    camera: &Camera,
+    opts: &RenderOptions,
+    (budget, clock): (Budget, Clock),
+    pass_spp: u32,
+    from: Option<Progressive>,
     mut after_pass: impl FnMut(&Progressive) -> Flow,
 ) -> Progressive {
-    let start = Instant::now();
+    let (mut wall, mut spent) = (stopwatch(Clock::Wall), stopwatch(clock));
     let before = from.as_ref().map_or(0.0, |p| p.seconds);
+    let spent_before = if clock == Clock::Wall { before } else { 0.0 };
     let done = from
         .as_ref()
         .map_or(PassCount { passes: 0, spp: 0 }, |p| p.count);
@@ -130,7 +178,7 @@ pub fn resume_progressive(
         budget,
         pass_spp,
         done,
-        || before + start.elapsed().as_secs_f64(),
+        || spent_before + spent(),
         |_, spp| {
             let so_far = state.as_ref().map_or(0, |p| p.count.spp);
             let pass_opts = RenderOptions {
@@ -154,7 +202,7 @@ pub fn resume_progressive(
             };
             p.count.passes += 1;
             p.count.spp += spp;
-            p.seconds = before + start.elapsed().as_secs_f64();
+            p.seconds = before + wall();
             after_pass(p)
         },
     );
@@ -165,6 +213,21 @@ pub fn resume_progressive(
 mod tests {
     use super::*;
     use std::cell::Cell;
+
+    /// Across a sleep the wall clock counts the sleep, and the CPU clock no more than the
+    /// process's CPU time read around it (other tests' threads may add to that; run alone, it
+    /// is near 0, and a CPU clock that counted wall seconds fails).
+    #[cfg(unix)]
+    #[test]
+    fn the_cpu_clock_counts_cpu_time_not_a_sleep() {
+        let before = process_cpu_seconds().unwrap();
+        let (mut wall, mut cpu) = (stopwatch(Clock::Wall), stopwatch(Clock::Cpu));
+        std::thread::sleep(std::time::Duration::from_millis(300));
+        let (wall, cpu) = (wall(), cpu());
+        let around = process_cpu_seconds().unwrap() - before;
+        assert!(wall >= 0.3, "wall {wall}");
+        assert!(0.0 <= cpu && cpu <= around, "cpu {cpu}, process {around}");
+    }
 
     /// Drives the loop with a fake clock where every pass costs `cost` seconds.
     fn fake_run(budget: Budget, pass_spp: u32, cost: f64) -> (PassCount, f64) {

@@ -62,6 +62,16 @@ fn malformed_option_values_are_usage_errors_refused_before_any_work() {
             vec!["--time-budget"],
         ),
         (
+            bench(&["--budget-clock", "cpu"]),
+            EXIT_USAGE,
+            vec!["--budget-clock", "--time-budget"],
+        ),
+        (
+            bench(&["--time-budget", "1", "--budget-clock", "sundial"]),
+            EXIT_USAGE,
+            vec!["--budget-clock", "sundial"],
+        ),
+        (
             bench(&["--target-relmse", "NaN"]),
             EXIT_USAGE,
             vec!["--target-relmse"],
