@@ -170,35 +170,37 @@ fn bench_reports_every_configuration_and_reuses_its_cached_reference() {
     );
 }
 
-#[test]
-fn a_cpu_time_budget_spends_at_least_that_much_cpu_time() {
+/// `bench` of the Cornell box at 8 × 8 against a 16-spp reference, with `extra` options and
+/// `--json`: its output and the JSON rows.
+fn small_bench(extra: &[&str]) -> (Output, serde_json::Value) {
     let dir = tempfile::tempdir().unwrap();
     let scene = cornell_copy(dir.path());
     let j = dir.path().join("b.json");
+    let (scene, j_arg) = (scene.to_str().unwrap(), j.to_str().unwrap());
+    let head = ["bench", scene, "--width", "8", "--reference-spp", "16"];
+    let args = [&head[..], extra, &["--json", j_arg]].concat();
+    let o = manylights(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let rows = json(&j);
+    (o, rows)
+}
+
+#[test]
+fn a_cpu_time_budget_spends_at_least_that_much_cpu_time() {
     let budget = 0.2;
-    let o = manylights(&[
-        "bench",
-        scene.to_str().unwrap(),
-        "--width",
-        "8",
+    let (o, rows) = small_bench(&[
         "--time-budget",
         &budget.to_string(),
         "--budget-clock",
         "cpu",
         "--repeat",
         "2",
-        "--reference-spp",
-        "16",
-        "--json",
-        j.to_str().unwrap(),
     ]);
-    assert!(o.status.success(), "{}", stderr(&o));
     assert!(
         stderr(&o).contains("equal CPU time 0.2 s each"),
         "{}",
         stderr(&o)
     );
-    let rows = json(&j);
     for row in rows.as_array().unwrap() {
         assert_eq!(row["budget_clock"], "cpu", "{row}");
         assert_eq!(row["time_budget"].as_f64(), Some(budget), "{row}");
@@ -213,27 +215,8 @@ fn a_cpu_time_budget_spends_at_least_that_much_cpu_time() {
 
 #[test]
 fn clamped_bench_rows_are_marked_biased() {
-    let dir = tempfile::tempdir().unwrap();
-    let scene = cornell_copy(dir.path());
-    let j = dir.path().join("b.json");
-    let o = manylights(&[
-        "bench",
-        scene.to_str().unwrap(),
-        "--width",
-        "8",
-        "--spp",
-        "2",
-        "--repeat",
-        "1",
-        "--reference-spp",
-        "16",
-        "--clamp",
-        "0.5",
-        "--json",
-        j.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    assert_eq!(json(&j)[0]["biased"], true);
+    let (_, rows) = small_bench(&["--spp", "2", "--repeat", "1", "--clamp", "0.5"]);
+    assert_eq!(rows[0]["biased"], true);
 }
 
 #[test]

@@ -32,7 +32,7 @@ pub enum Clock {
 }
 
 /// A reading of `clock` in seconds since this call.
-pub fn stopwatch(clock: Clock) -> impl FnMut() -> f64 {
+fn stopwatch(clock: Clock) -> impl FnMut() -> f64 {
     let (start, cpu) = (Instant::now(), process_cpu_seconds());
     move || match clock {
         Clock::Cpu => cpu_seconds_between(cpu, process_cpu_seconds())
