@@ -210,13 +210,17 @@ impl TileSums {
         count: usize,
         last_of_pixel: u32,
     ) {
-        // The light choices' cache misses overlap the camera rays' traversal.
-        let mut first_lights = [None; PACKET];
-        estimator.prefetch_lights(&samples[..count], &mut first_lights[..count]);
+        // The light choices' cache misses overlap the camera rays' traversal: their first bins
+        // are asked for before it, read after it.
+        let starts = estimator.prefetch_light_bins(&samples[..count]);
         let mut hits = [None; PACKET];
         estimator
             .accel
             .closest_hits(&rays[..count], &mut hits[..count]);
+        let mut first_lights = [None; PACKET];
+        if let Some(starts) = &starts {
+            estimator.prefetch_lights(&samples[..count], starts, &mut first_lights[..count]);
+        }
         estimator.prefetch_hits(&hits[..count]);
         for i in 0..count {
             let stats = &mut self.stats;
