@@ -1,46 +1,53 @@
-//! The program's memory allocator: glibc's malloc for every block below 2 MiB, and for larger
-//! blocks an anonymous mapping of our own, marked for transparent huge pages
-//! (`madvise(MADV_HUGEPAGE)`), so the kernel backs it with 2 MiB pages where it can: one page
-//! fault and one TLB entry for 512 small pages.
+//! The program's memory allocator: glibc's malloc for every block below 1 MiB, and for larger
+//! blocks an anonymous mapping of our own, a whole number of 2 MiB huge pages long and marked for
+//! transparent huge pages (`madvise(MADV_HUGEPAGE)`), so the kernel backs it with 2 MiB pages
+//! where it can: one page fault and one TLB entry for 512 small pages.
 //!
 //! Loading and indexing a large scene writes fresh memory, not reused memory: the geometry
-//! BVH's parts and the light tree's build allocate their temporaries anew, and glibc maps every
-//! block from 1 MiB up on its own (`main.rs` asks for that, to keep the peak low), so each one
-//! is faulted in page by page. On the 1M-emitter city that was about 380,000 faults of 4 KiB
-//! for a peak of 427 MB, and is 22,000 now (README, Layout). Growth (`realloc`) of a mapped
-//! block moves its pages with `mremap`, without copying (or copies them where the kernel
-//! refuses the move). The advice is only advice: where the kernel gives no huge pages (THP
-//! disabled, or none free), the blocks are plain mappings, as glibc's would be.
+//! BVH's parts and the light tree's build allocate their temporaries anew, each one faulted in
+//! page by page on small pages. On the 1M-emitter city that was about 380,000 faults of 4 KiB
+//! for a peak of 427 MB (README, Layout). Rendering reads the scene's arrays at random (the
+//! walk's nodes, triangles, lights, the alias table), and every small page it touches is a TLB
+//! entry; in a virtual machine each TLB miss walks two page tables. So blocks from 1 MiB up
+//! (the 50k city's alias table is 1.2 MB) are mapped in whole huge pages, the tail of the last
+//! one included: rounding up costs at most 2 MiB a block. Render 64 × 48 at 1 spp, bvh, of the
+//! 1M city (`/usr/bin/time`, three runs each): 26,000 → 7,000 minor faults, 0.35–1.05 → 0.23–0.35
+//! s of system time, peak 441 → 449–458 MB. Growth (`realloc`) of a mapped block moves its pages
+//! with `mremap`, without copying (or copies them where the kernel refuses the move). The advice
+//! is only advice: where the kernel gives no huge pages (THP disabled, or none free), the blocks
+//! are plain mappings, as glibc's would be.
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::ptr::null_mut;
 
-/// Blocks of at least this many bytes are mapped with huge pages (one huge page's size).
+/// One huge page: mappings start on a multiple of it and are a whole number of it long.
 const HUGE_MIN: usize = 2 << 20;
+/// Blocks of at least this many bytes are mapped by us.
+const MAP_MIN: usize = 1 << 20;
 /// The size and alignment of a mapping's (small) pages.
 const PAGE: usize = 4096;
 
-/// glibc's malloc with blocks of 2 MiB and more mapped on transparent huge pages (see the module
+/// glibc's malloc with blocks of 1 MiB and more mapped on transparent huge pages (see the module
 /// header); elsewhere than Linux, the system allocator alone.
 pub struct HugePageAllocator;
 
 /// Whether a block of `layout` is mapped by us: large, and aligned no more than a page.
 #[inline]
 fn is_mapped(layout: &Layout) -> bool {
-    cfg!(target_os = "linux") && layout.size() >= HUGE_MIN && layout.align() <= PAGE
+    cfg!(target_os = "linux") && layout.size() >= MAP_MIN && layout.align() <= PAGE
 }
 
-/// The length of the mapping that holds `size` bytes.
+/// The length of the mapping that holds `size` bytes: whole huge pages.
 #[inline]
 fn mapped_len(size: usize) -> usize {
-    size.next_multiple_of(PAGE)
+    size.next_multiple_of(HUGE_MIN)
 }
 
 /// A fresh zero-filled mapping of at least `size` bytes starting on a huge-page boundary,
-/// advised to use huge pages, or null. The kernel aligns only mappings whose length is a
-/// multiple of 2 MiB: so `size` rounded up to a page, plus 2 MiB less a page, is mapped, and the
-/// slack before the boundary and after the block is unmapped again. Every whole 2 MiB of the
-/// block can then be one huge page; only its last, partial one is made of small pages.
+/// advised to use huge pages, or null. The kernel does not align mappings to huge pages: so
+/// `size` rounded up to whole huge pages, plus 2 MiB less a page, is mapped, and the slack before
+/// the boundary and after the block is unmapped again. Every 2 MiB of the block, the last one
+/// included, can then be one huge page.
 #[cfg(target_os = "linux")]
 unsafe fn map(size: usize) -> *mut u8 {
     let len = mapped_len(size);
@@ -214,7 +221,7 @@ mod tests {
     #[test]
     fn blocks_keep_their_contents_through_growth_and_shrinking_across_the_threshold() {
         let a = HugePageAllocator;
-        let small = Layout::from_size_align(HUGE_MIN / 4, 64).unwrap();
+        let small = Layout::from_size_align(MAP_MIN / 4, 64).unwrap();
         // SAFETY: non-zero sizes; every block is freed with the layout it has.
         unsafe {
             let p = a.alloc(small);
@@ -225,7 +232,7 @@ mod tests {
                 HUGE_MIN + 8,
                 3 * HUGE_MIN + 4096 + 8,
                 HUGE_MIN + 16,
-                HUGE_MIN / 8,
+                MAP_MIN / 8,
             ];
             let (mut p, mut layout) = (p, small);
             for &size in &sizes {
@@ -233,7 +240,7 @@ mod tests {
                 p = a.realloc(p, layout, size);
                 assert!(!p.is_null());
                 assert_eq!(p as usize % 64, 0, "alignment kept");
-                if size >= HUGE_MIN {
+                if size >= MAP_MIN {
                     assert_eq!(
                         p as usize % HUGE_MIN,
                         0,
@@ -284,7 +291,7 @@ mod tests {
         let a = HugePageAllocator;
         let (large, small) = (
             Layout::from_size_align(3 * HUGE_MIN, 8).unwrap(),
-            Layout::from_size_align(HUGE_MIN / 2, 8).unwrap(),
+            Layout::from_size_align(MAP_MIN / 2, 8).unwrap(),
         );
         // SAFETY: non-zero sizes, freed with their layouts.
         unsafe {
@@ -331,20 +338,25 @@ mod tests {
         let layout = Layout::from_size_align(HUGE_MIN + 3 * PAGE, 8).unwrap();
         let len = mapped_len(layout.size());
         // SAFETY: guard pages are mapped only where nothing is (NOREPLACE) and unmapped at the
-        // end; every block is freed with its layout.
+        // end; every block is freed with its layout, the set-aside ones last.
         unsafe {
-            // A block with a guard page of ours right after it (blocks whose next page another
-            // test took meanwhile are set aside, as that mapping may go away at any time).
-            let mut set_aside = Vec::new();
-            let p = loop {
+            // A block with a mapping of ours right after it: a guard page, or a block set aside
+            // before (the kernel often places a new mapping right below the last one). Blocks
+            // whose next page another test took meanwhile are set aside, as that mapping may go
+            // away at any time.
+            let mut set_aside: Vec<*mut u8> = Vec::new();
+            let (p, guard) = loop {
                 let p = a.alloc(layout);
-                if guard_page(p.add(len)) {
-                    break p;
+                let after = p.add(len);
+                if set_aside.contains(&after) {
+                    break (p, None);
+                }
+                if guard_page(after) {
+                    break (p, Some(after));
                 }
                 set_aside.push(p);
                 assert!(set_aside.len() < 16, "no free page after 16 blocks");
             };
-            let guard = p.add(len);
             fill(p, layout.size(), 5);
             let grown = a.realloc(p, layout, 4 * HUGE_MIN);
             assert!(!grown.is_null());
@@ -374,7 +386,9 @@ mod tests {
             assert_eq!(small, again, "a shrink stays in place");
             assert!(holds(small, 3 * HUGE_MIN, 6), "contents kept by the shrink");
             a.dealloc(small, Layout::from_size_align(3 * HUGE_MIN, 8).unwrap());
-            libc::munmap(guard.cast(), PAGE);
+            if let Some(guard) = guard {
+                libc::munmap(guard.cast(), PAGE);
+            }
             if guarded2 {
                 libc::munmap(guard2.cast(), PAGE);
             }
@@ -387,7 +401,7 @@ mod tests {
     #[test]
     fn zeroed_blocks_read_as_zero_on_both_sides_of_the_threshold() {
         let a = HugePageAllocator;
-        for size in [4096, HUGE_MIN - 8, HUGE_MIN, 5 * HUGE_MIN + 24] {
+        for size in [4096, MAP_MIN - 8, MAP_MIN, HUGE_MIN, 5 * HUGE_MIN + 24] {
             let layout = Layout::from_size_align(size, 8).unwrap();
             // SAFETY: a non-zero size, freed with its layout.
             unsafe {
