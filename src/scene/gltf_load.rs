@@ -301,11 +301,10 @@ pub fn load_gltf_bytes_allowing(
 
     let camera = choose_camera(&cameras, camera).map_err(|m| invalid("camera".into(), m))?;
     let (materials, textures) = (loader.materials, loader.textures);
-    let textured = materials
-        .iter()
-        .any(|m| m.base_color_texture.is_some() || m.emissive_texture.is_some());
-    if !textured {
-        uvs = Vec::new();
+    let textured = materials.iter().any(uses_uvs);
+    if textured {
+        // Texture coordinates are kept from the first textured primitive on (`read_primitive`).
+        uvs.resize(triangles.len(), [Vec2::ZERO; 3]);
     }
     let scene_element = format!("scene {}", scene.index());
     let mut scene = Scene::with_uvs(triangles, uvs, materials, camera)
@@ -317,6 +316,11 @@ pub fn load_gltf_bytes_allowing(
     scene.stats.skipped_primitive_names = stats.skipped_primitive_names;
     scene.stats.degenerate_triangles += stats.degenerate_triangles;
     Ok(scene)
+}
+
+/// Whether a material reads texture coordinates (it has a base colour or emissive texture).
+fn uses_uvs(material: &Material) -> bool {
+    material.base_color_texture.is_some() || material.emissive_texture.is_some()
 }
 
 /// Whether primitives of this mode cover area (triangles, strips and fans); points and lines
@@ -531,6 +535,14 @@ impl Loader<'_> {
         }
         let indices = triangle_list(mode, indices);
 
+        // Texture coordinates are kept from the first primitive with a textured material on,
+        // the triangles before it given zeros (their materials read none): an untextured scene
+        // never fills them (48 MB on the 1M-emitter city).
+        let material_ref = &self.materials[material as usize];
+        if uses_uvs(material_ref) && out_uvs.len() < out.len() {
+            out_uvs.resize(out.len(), [Vec2::ZERO; 3]);
+        }
+        let keep_uvs = uses_uvs(material_ref) || !out_uvs.is_empty();
         let normal_matrix = Mat3::from_mat4(*world).inverse().transpose();
         let mirrored = Mat3::from_mat4(*world).determinant() < 0.0;
         let to_world = |p: Vec3| world.transform_point3(p);
@@ -554,13 +566,14 @@ impl Loader<'_> {
                     .filter(|n| n.is_finite() && *n != Vec3::ZERO)
                     .unwrap_or(ng)
             });
-            let uv = ids.map(|i| uvs.as_ref().map_or(Vec2::ZERO, |u| u[i as usize]));
             out.push(Triangle {
                 positions: p,
                 normals: n,
                 material,
             });
-            out_uvs.push(uv);
+            if keep_uvs {
+                out_uvs.push(ids.map(|i| uvs.as_ref().map_or(Vec2::ZERO, |u| u[i as usize])));
+            }
         }
         Ok(())
     }

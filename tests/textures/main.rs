@@ -8,13 +8,15 @@
 //! - on the same emitter split into 2×2×2 large triangles (across which Le(uv) varies much),
 //!   power and light-BVH selection (textured power, Le read at each sample's uv) against uniform
 //!   selection and BSDF sampling (Le read at the hit's uv), block by block within 5σ;
-//! - missing, corrupt and oversized images, and TEXCOORD_1, as errors naming the image.
+//! - missing, corrupt and oversized images, and TEXCOORD_1, as errors naming the image;
+//! - texture coordinates kept in triangle order after untextured primitives, none when untextured.
 
 use crate::lambert;
 
 mod errors;
 mod lighting;
 mod power;
+mod uvs;
 
 pub(crate) use std::path::{Path, PathBuf};
 
