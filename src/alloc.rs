@@ -12,10 +12,11 @@
 //! (the 50k city's alias table is 1.2 MB) are mapped in whole huge pages, the tail of the last
 //! one included: rounding up costs at most 2 MiB a block. Render 64 × 48 at 1 spp, bvh, of the
 //! 1M city (`/usr/bin/time`, three runs each): 26,000 → 7,000 minor faults, 0.35–1.05 → 0.23–0.35
-//! s of system time, peak 441 → 449–458 MB. Growth (`realloc`) of a mapped block moves its pages
-//! with `mremap`, without copying (or copies them where the kernel refuses the move). The advice
-//! is only advice: where the kernel gives no huge pages (THP disabled, or none free), the blocks
-//! are plain mappings, as glibc's would be.
+//! s of system time, peak 441 → 449–458 MB (the render's time on the 50k city moved within
+//! this machine's noise). Growth (`realloc`) of a mapped block moves its pages with `mremap`,
+//! without copying (or copies them where the kernel refuses the move). The advice is only
+//! advice: where the kernel gives no huge pages (THP disabled, or none free), the blocks are
+//! plain mappings, as glibc's would be.
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::ptr::null_mut;

@@ -26,9 +26,10 @@ fn restore_broken_pipe_termination() {
 }
 
 /// glibc's malloc (which serves blocks below 1 MiB: larger ones are mapped by
-/// `manylights::alloc`), told to use one arena and to serve every block from 1 MB up with its
-/// own mapping (which it then never sees, but a fixed threshold is also one that does not grow). By default each thread gets an arena, and the size above which blocks are mapped
-/// grows to 32 MB once a large block is freed; the BVH build's parts, built in parallel, then
+/// `manylights::alloc`), told to use one arena and a fixed threshold of 1 MB above which blocks
+/// get their own mapping (no block it sees is that large, but a set threshold never grows). By
+/// default each thread gets an arena, and the size above which blocks are mapped grows to 32 MB
+/// once a large block is freed; the BVH build's parts, built in parallel, then
 /// leave their freed temporaries scattered through heaps that cannot shrink. On the 1M-emitter
 /// city (`/usr/bin/time -f %M`, render 64×48, 1 spp, power) the peak was 473–553 MB and varied
 /// between runs; with these settings it is 421–425 MB, for a BVH build of 0.79–0.84 s instead

@@ -26,8 +26,9 @@ impl Estimator<'_> {
     /// light choices of each of `samples` read first, where the selector's choice does not
     /// depend on the shading point (the power selector's alias table) and the strategy draws
     /// one light per slot from `light_choice`. Returns each sample's slot-0 start for
-    /// [`prefetch_lights`](Self::prefetch_lights), or None where this pass does nothing. The caller traces the packet's camera rays in between, so that the bins have
-    /// arrived when their reads (each followed by an unpredictable branch) are made.
+    /// [`prefetch_lights`](Self::prefetch_lights), or None where this pass does nothing. The
+    /// caller traces the packet's camera rays in between, so that the bins have arrived when
+    /// their reads (each followed by an unpredictable branch) are made.
     pub fn prefetch_light_bins(&self, samples: &[CameraSample]) -> Option<[Start; PACKET]> {
         let Some(LightSelector::Power(table)) = self.selector else {
             return None;

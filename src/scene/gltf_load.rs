@@ -538,11 +538,11 @@ impl Loader<'_> {
         // Texture coordinates are kept from the first primitive with a textured material on,
         // the triangles before it given zeros (their materials read none): an untextured scene
         // never fills them (48 MB on the 1M-emitter city).
-        let material_ref = &self.materials[material as usize];
-        if uses_uvs(material_ref) && out_uvs.len() < out.len() {
+        let textured = uses_uvs(&self.materials[material as usize]);
+        if textured && out_uvs.len() < out.len() {
             out_uvs.resize(out.len(), [Vec2::ZERO; 3]);
         }
-        let keep_uvs = uses_uvs(material_ref) || !out_uvs.is_empty();
+        let keep_uvs = textured || !out_uvs.is_empty();
         let normal_matrix = Mat3::from_mat4(*world).inverse().transpose();
         let mirrored = Mat3::from_mat4(*world).determinant() < 0.0;
         let to_world = |p: Vec3| world.transform_point3(p);
