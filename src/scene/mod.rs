@@ -12,6 +12,7 @@ mod gltf_extensions;
 mod gltf_files;
 mod gltf_load;
 mod gltf_materials;
+mod gltf_packed;
 pub mod memory;
 pub mod texture;
 pub mod texture_decode;
