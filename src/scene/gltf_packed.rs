@@ -1,13 +1,14 @@
 //! Reading an accessor straight from its bytes where its elements lie back to back in one
 //! buffer view (no sparse part, no stride or one equal to the element size), as exporters write
-//! positions, normals and indices. The `gltf` crate's reader decodes element by element through
-//! its stride logic (about a quarter of a 200k-emitter city's load); these give the same values
-//! from whole slices, and `None` (the caller then uses the crate's reader) for anything else.
-//! The caller has checked the accessor's type and extent (`gltf_checks.rs`).
+//! positions, normals, texture coordinates and indices. The `gltf` crate's reader decodes
+//! element by element through its stride logic (about a quarter of a 200k-emitter city's load);
+//! these give the same values from whole slices, and `None` (the caller then uses the crate's
+//! reader) for anything else. The caller has checked the accessor's type and extent
+//! (`gltf_checks.rs`).
 
 use std::borrow::Cow;
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use gltf::accessor::{DataType, Dimensions};
 
 /// The bytes of `acc`'s elements of `size` bytes, or `None` unless they are packed in one view.
@@ -25,19 +26,37 @@ fn packed<'a>(acc: &gltf::Accessor, buffers: &'a [Cow<[u8]>], size: usize) -> Op
     buffers.get(view.buffer().index())?.get(start..end)
 }
 
+/// Component `k` of an element of little-endian f32s (as glTF stores them).
+#[inline(always)]
+fn component(element: &[u8], k: usize) -> f32 {
+    let b = &element[4 * k..4 * k + 4];
+    f32::from_le_bytes([b[0], b[1], b[2], b[3]])
+}
+
 /// A packed F32 VEC3 accessor's elements (little-endian, as glTF stores them).
 pub(super) fn read_vec3(acc: &gltf::Accessor, buffers: &[Cow<[u8]>]) -> Option<Vec<Vec3>> {
     if acc.dimensions() != Dimensions::Vec3 || acc.data_type() != DataType::F32 {
         return None;
     }
     let bytes = packed(acc, buffers, 12)?;
-    let component = |b: &[u8], k: usize| {
-        f32::from_le_bytes([b[4 * k], b[4 * k + 1], b[4 * k + 2], b[4 * k + 3]])
-    };
     Some(
         bytes
             .chunks_exact(12)
             .map(|b| Vec3::new(component(b, 0), component(b, 1), component(b, 2)))
+            .collect(),
+    )
+}
+
+/// A packed F32 VEC2 accessor's elements (texture coordinates stored as floats).
+pub(super) fn read_vec2(acc: &gltf::Accessor, buffers: &[Cow<[u8]>]) -> Option<Vec<Vec2>> {
+    if acc.dimensions() != Dimensions::Vec2 || acc.data_type() != DataType::F32 {
+        return None;
+    }
+    let bytes = packed(acc, buffers, 8)?;
+    Some(
+        bytes
+            .chunks_exact(8)
+            .map(|b| Vec2::new(component(b, 0), component(b, 1)))
             .collect(),
     )
 }

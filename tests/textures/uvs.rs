@@ -7,6 +7,12 @@ use super::*;
 /// One triangle per mesh, each with TEXCOORD_0 = (k + 0.25, 0.5), (k + 0.5, 0.75), (k + 0.75,
 /// 0.25) for mesh k; mesh k uses material `materials[k]` (true: a base-colour texture).
 fn scene_of(textured: &[bool]) -> Scene {
+    scene_laid_out(textured, false)
+}
+
+/// [`scene_of`], with each mesh's positions and texture coordinates interleaved in one buffer
+/// view (a stride of 20 bytes) when `interleaved`, else each in a packed view of its own.
+fn scene_laid_out(textured: &[bool], interleaved: bool) -> Scene {
     let mut bin: Vec<u8> = Vec::new();
     let (mut views, mut accessors, mut meshes, mut materials) =
         (Vec::new(), Vec::new(), Vec::new(), Vec::new());
@@ -21,13 +27,30 @@ fn scene_of(textured: &[bool]) -> Scene {
             k as f32 + 0.75,
             0.25,
         ];
-        for (values, kind) in [(&positions[..], "VEC3"), (&uv[..], "VEC2")] {
+        if interleaved {
             views.push(
-                json!({"buffer": 0, "byteOffset": bin.len(), "byteLength": values.len() * 4}),
+                json!({"buffer": 0, "byteOffset": bin.len(), "byteLength": 60,
+                "byteStride": 20}),
             );
-            bin.extend(values.iter().flat_map(|v| v.to_le_bytes()));
-            let mut accessor = json!({"bufferView": views.len() - 1, "componentType": 5126,
-                "count": 3, "type": kind});
+            for v in 0..3 {
+                let vertex = positions[3 * v..3 * v + 3]
+                    .iter()
+                    .chain(&uv[2 * v..2 * v + 2]);
+                bin.extend(vertex.flat_map(|x| x.to_le_bytes()));
+            }
+        }
+        for (values, kind) in [(&positions[..], "VEC3"), (&uv[..], "VEC2")] {
+            let (view, offset) = if interleaved {
+                (views.len() - 1, if kind == "VEC3" { 0 } else { 12 })
+            } else {
+                views.push(
+                    json!({"buffer": 0, "byteOffset": bin.len(), "byteLength": values.len() * 4}),
+                );
+                bin.extend(values.iter().flat_map(|v| v.to_le_bytes()));
+                (views.len() - 1, 0)
+            };
+            let mut accessor = json!({"bufferView": view, "byteOffset": offset,
+                "componentType": 5126, "count": 3, "type": kind});
             if kind == "VEC3" {
                 accessor["min"] = json!([x, 0.0, 0.0]);
                 accessor["max"] = json!([x + 1.0, 1.0, 0.0]);
@@ -97,4 +120,27 @@ fn an_untextured_scene_keeps_no_texture_coordinates() {
     let scene = scene_of(&[false, false]);
     assert_eq!(scene.triangles.len(), 2);
     assert!(scene.uvs.is_empty());
+}
+
+/// Texture coordinates read from their own packed view (straight from the bytes) and from a view
+/// shared with the positions (through the `gltf` crate's reader) are the same, bit for bit.
+#[test]
+fn packed_and_interleaved_texture_coordinates_are_the_same() {
+    let textured = [false, true, true];
+    let (packed, interleaved) = (
+        scene_laid_out(&textured, false),
+        scene_laid_out(&textured, true),
+    );
+    let bits = |scene: &Scene| -> Vec<u32> {
+        scene
+            .uvs
+            .iter()
+            .flatten()
+            .flat_map(|uv| uv.to_array().map(f32::to_bits))
+            .collect()
+    };
+    assert_eq!(packed.uvs.len(), 3);
+    assert_eq!(bits(&packed), bits(&interleaved));
+    assert_eq!(packed.uvs[2], file_uvs(2));
+    assert_eq!(packed.triangles, interleaved.triangles);
 }
