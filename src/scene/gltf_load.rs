@@ -319,7 +319,8 @@ pub fn load_gltf_bytes_allowing(
     Ok(scene)
 }
 
-/// `f` of a triangle's three vertex indices, written out (`[u32; 3]::map` cost a third of a load).
+/// `f` of a triangle's three vertex indices, written out: `[u32; 3]::map` went through the
+/// array's generic drain (a 200k-emitter city's load: 279 → 249 M instructions without it).
 #[inline(always)]
 fn per_corner<T>(ids: [u32; 3], f: impl Fn(u32) -> T) -> [T; 3] {
     [f(ids[0]), f(ids[1]), f(ids[2])]
