@@ -26,37 +26,39 @@ fn packed<'a>(acc: &gltf::Accessor, buffers: &'a [Cow<[u8]>], size: usize) -> Op
     buffers.get(view.buffer().index())?.get(start..end)
 }
 
-/// Component `k` of an element of little-endian f32s (as glTF stores them).
-#[inline(always)]
-fn component(element: &[u8], k: usize) -> f32 {
-    let b = &element[4 * k..4 * k + 4];
-    f32::from_le_bytes([b[0], b[1], b[2], b[3]])
-}
-
-/// A packed F32 VEC3 accessor's elements (little-endian, as glTF stores them).
-pub(super) fn read_vec3(acc: &gltf::Accessor, buffers: &[Cow<[u8]>]) -> Option<Vec<Vec3>> {
-    if acc.dimensions() != Dimensions::Vec3 || acc.data_type() != DataType::F32 {
+/// The elements of a packed F32 accessor of `dimensions` with `N` components each (little-endian,
+/// as glTF stores them), or `None` for any other accessor.
+fn floats<'a, const N: usize>(
+    acc: &gltf::Accessor,
+    buffers: &'a [Cow<[u8]>],
+    dimensions: Dimensions,
+) -> Option<impl Iterator<Item = [f32; N]> + 'a> {
+    if acc.dimensions() != dimensions || acc.data_type() != DataType::F32 {
         return None;
     }
-    let bytes = packed(acc, buffers, 12)?;
+    let bytes = packed(acc, buffers, 4 * N)?;
+    Some(bytes.chunks_exact(4 * N).map(|element| {
+        std::array::from_fn(|k| {
+            let b = &element[4 * k..4 * k + 4];
+            f32::from_le_bytes([b[0], b[1], b[2], b[3]])
+        })
+    }))
+}
+
+/// A packed F32 VEC3 accessor's elements (positions, normals).
+pub(super) fn read_vec3(acc: &gltf::Accessor, buffers: &[Cow<[u8]>]) -> Option<Vec<Vec3>> {
     Some(
-        bytes
-            .chunks_exact(12)
-            .map(|b| Vec3::new(component(b, 0), component(b, 1), component(b, 2)))
+        floats::<3>(acc, buffers, Dimensions::Vec3)?
+            .map(Vec3::from)
             .collect(),
     )
 }
 
 /// A packed F32 VEC2 accessor's elements (texture coordinates stored as floats).
 pub(super) fn read_vec2(acc: &gltf::Accessor, buffers: &[Cow<[u8]>]) -> Option<Vec<Vec2>> {
-    if acc.dimensions() != Dimensions::Vec2 || acc.data_type() != DataType::F32 {
-        return None;
-    }
-    let bytes = packed(acc, buffers, 8)?;
     Some(
-        bytes
-            .chunks_exact(8)
-            .map(|b| Vec2::new(component(b, 0), component(b, 1)))
+        floats::<2>(acc, buffers, Dimensions::Vec2)?
+            .map(Vec2::from)
             .collect(),
     )
 }
