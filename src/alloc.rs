@@ -11,12 +11,14 @@
 //! entry; in a virtual machine each TLB miss walks two page tables. So blocks from 1 MiB up
 //! (the 50k city's alias table is 1.2 MB) are mapped in whole huge pages, the tail of the last
 //! one included: rounding up costs at most 2 MiB a block. `render --spp 1 --width 64 --selector
-//! bvh` of the 1M city (`/usr/bin/time`, three runs each): 26,000 → 7,000 minor faults,
-//! 0.35–1.05 → 0.23–0.35 s of system time, peak 441 → 449–458 MB (the render's time on the 50k
-//! city moved within this machine's noise: `compare.py` of the peers' harness, six runs). Growth (`realloc`) of a mapped block moves its pages with `mremap`,
-//! without copying (or copies them where the kernel refuses the move). The advice is only
-//! advice: where the kernel gives no huge pages (THP disabled, or none free), the blocks are
-//! plain mappings, as glibc's would be.
+//! bvh` of the 1M city, `/usr/bin/time`, three runs each of the binary before (c9cfc79) and
+//! after: 25,800–26,800 → 16,000–17,100 minor faults (448 of them huge pages, none falling back
+//! to small ones: `thp_fault_alloc` and `thp_fault_fallback` in /proc/vmstat), 0.49–0.87 →
+//! 0.25–0.58 s of system time, peak 440–451 → 449–458 MB (the render's time on the 50k city
+//! moved within this machine's noise: `compare.py` of the peers' harness, six runs). Growth
+//! (`realloc`) of a mapped block moves its pages with `mremap`, without copying (or copies them
+//! where the kernel refuses the move). The advice is only advice: where the kernel gives no
+//! huge pages (THP disabled, or none free), the blocks are plain mappings, as glibc's would be.
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::ptr::null_mut;

@@ -451,14 +451,9 @@ impl Loader<'_> {
             &[DataType::F32],
             self.buffers,
         )?;
-        let positions: Vec<Vec3> = match read_vec3(&pos_acc, self.buffers) {
-            Some(packed) => packed,
-            None => reader
-                .read_positions()
-                .ok_or_else(|| out_of_range("POSITION", &pos_acc))?
-                .map(Vec3::from)
-                .collect(),
-        };
+        let positions: Vec<Vec3> = read_vec3(&pos_acc, self.buffers)
+            .or_else(|| Some(reader.read_positions()?.map(Vec3::from).collect()))
+            .ok_or_else(|| out_of_range("POSITION", &pos_acc))?;
         if positions.len() != pos_acc.count() {
             return Err(out_of_range("POSITION", &pos_acc));
         }
@@ -480,14 +475,9 @@ impl Loader<'_> {
                     &[DataType::F32],
                     self.buffers,
                 )?;
-                let n = match read_vec3(&acc, self.buffers) {
-                    Some(packed) => packed,
-                    None => reader
-                        .read_normals()
-                        .ok_or_else(|| out_of_range("NORMAL", &acc))?
-                        .map(Vec3::from)
-                        .collect(),
-                };
+                let n = read_vec3(&acc, self.buffers)
+                    .or_else(|| Some(reader.read_normals()?.map(Vec3::from).collect()))
+                    .ok_or_else(|| out_of_range("NORMAL", &acc))?;
                 per_vertex("NORMAL", &acc, n, vertices)
             })
             .transpose()?;
@@ -502,15 +492,17 @@ impl Loader<'_> {
                     &types,
                     self.buffers,
                 )?;
-                let uv = match read_vec2(&acc, self.buffers) {
-                    Some(packed) => packed,
-                    None => reader
-                        .read_tex_coords(0)
-                        .ok_or_else(|| out_of_range("TEXCOORD_0", &acc))?
-                        .into_f32()
-                        .map(Vec2::from)
-                        .collect(),
-                };
+                let uv = read_vec2(&acc, self.buffers)
+                    .or_else(|| {
+                        Some(
+                            reader
+                                .read_tex_coords(0)?
+                                .into_f32()
+                                .map(Vec2::from)
+                                .collect(),
+                        )
+                    })
+                    .ok_or_else(|| out_of_range("TEXCOORD_0", &acc))?;
                 per_vertex("TEXCOORD_0", &acc, uv, vertices)
             })
             .transpose()?;
@@ -523,14 +515,9 @@ impl Loader<'_> {
                     &[DataType::U8, DataType::U16, DataType::U32],
                     self.buffers,
                 )?;
-                let idx: Vec<u32> = match read_indices(&acc, self.buffers) {
-                    Some(packed) => packed,
-                    None => reader
-                        .read_indices()
-                        .ok_or_else(|| out_of_range("indices", &acc))?
-                        .into_u32()
-                        .collect(),
-                };
+                let idx: Vec<u32> = read_indices(&acc, self.buffers)
+                    .or_else(|| Some(reader.read_indices()?.into_u32().collect()))
+                    .ok_or_else(|| out_of_range("indices", &acc))?;
                 if idx.len() != acc.count() {
                     return Err(out_of_range("indices", &acc));
                 }
