@@ -29,7 +29,10 @@
 //!   node's grid, cone axis, cosines; Φ as a bfloat16; the power centre as 8-bit
 //!   offsets within the sphere and the lights' spread about it in 4 bits), 256
 //!   bytes a node, decoded to
-//!   f32 lanes as a node is evaluated. A lane keeps
+//!   f32 lanes as a node is evaluated. Two lights whose bounds hardly differ
+//!   (the triangles of a quad) share a lane, which chooses between them in
+//!   proportion to power: the ratio of their importances where their boxes and
+//!   cones are the same. A lane keeps
 //!   the first light id of its range, so `pmf` finds the lane holding a light
 //!   without parent links or per-light bit trails. Quantisation can cost
 //!   efficiency but never gives 0 to a child that holds a light able to reach

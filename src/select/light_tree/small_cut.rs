@@ -54,7 +54,7 @@ impl Table {
         (self.root, self.len) = (root.index, 2 * root.count - 1);
         for i in (0..2 * root.count - 1).rev() {
             let index = root.index + i;
-            self.fewest[i] = if binary[index].is_leaf() {
+            self.fewest[i] = if is_unit(binary, index) {
                 Fewest {
                     nodes: 0,
                     lanes: 1,
@@ -83,7 +83,7 @@ impl Table {
     /// (nodes, lanes) of keeping binary node `index` as one lane.
     fn kept(&self, binary: &[Node], index: usize) -> (u32, u8) {
         let f = self.get(index);
-        if binary[index].is_leaf() {
+        if is_unit(binary, index) {
             (f.nodes, f.lanes)
         } else {
             (f.nodes + 1, 1)
@@ -131,7 +131,7 @@ impl Table {
         let (left, right) = halves(binary, lane);
         let opened = self.get(lane.index).opened;
         for (half, opened) in [(left, opened[0]), (right, opened[1])] {
-            if opened && !binary[half.index].is_leaf() {
+            if opened && !is_unit(binary, half.index) {
                 self.cut(binary, half, lanes, used);
             } else {
                 lanes[*used] = Some(half);

@@ -45,7 +45,9 @@ pub struct LightBvh {
     pub(super) top: Vec<Decoded>,
     /// The root lanes' distance and direction terms near the lights ([`NearField`]).
     pub(super) near: Option<NearField>,
-    pub(super) lights: usize,
+    /// Each light's power Φ, by id (one entry a light): a pair lane ([`WideNode::pairs`])
+    /// chooses between its two lights in proportion to it.
+    pub(super) phi: Vec<f32>,
     /// Whether the CPU has AVX2, FMA and POPCNT (`sample` and `pmf` then run a copy
     /// compiled for them).
     pub(super) avx2: bool,
@@ -74,8 +76,8 @@ impl BinaryTree {
         LightBvh {
             near: NearField::build(&nodes, &reach, &self.points, avx2),
             top: nodes.iter().take(DECODED_TOP).map(Decoded::of).collect(),
+            phi: self.points.iter().map(|p| p.phi).collect(),
             nodes,
-            lights: self.order.len(),
             avx2,
         }
     }
@@ -234,11 +236,21 @@ impl LightBvh {
             let (lane, below, importance) = choose_lane(&lanes, target);
             pmf *= importance / total;
             let child = node.child(lane);
-            if child & LIGHT_LANE != 0 {
-                return (pmf > 0.0).then_some(((child & !LIGHT_LANE) as usize, pmf));
-            }
             // Rescaled only where another choice follows.
-            u = ((target - below) / importance).clamp(0.0, LARGEST_BELOW_ONE);
+            let rescaled = || ((target - below) / importance).clamp(0.0, LARGEST_BELOW_ONE);
+            if child & LIGHT_LANE != 0 {
+                let mut light = (child & !LIGHT_LANE) as usize;
+                if node.pairs & (1 << lane) != 0 {
+                    let (first, second) = self.pair_shares(light);
+                    if rescaled() < first {
+                        pmf *= first;
+                    } else {
+                        (light, pmf) = (light + 1, pmf * second);
+                    }
+                }
+                return (pmf > 0.0).then_some((light, pmf));
+            }
+            u = rescaled();
             // The node is looked up once: `below_root`'s own lookup of it is the same check.
             let index = child as usize;
             node = self.nodes.get(index)?;
@@ -270,7 +282,7 @@ impl LightBvh {
 
     #[inline(always)]
     fn pmf_portable(&self, p: Vec3, n: Vec3, lobe: Lobe, light: usize) -> f64 {
-        if light >= self.lights || !is_finite(p, n) {
+        if light >= self.len() || !is_finite(p, n) {
             return 0.0;
         }
         let light = light as u32;
@@ -291,10 +303,12 @@ impl LightBvh {
             }
             let child = node.child(lane);
             if child & LIGHT_LANE != 0 {
-                return if child & !LIGHT_LANE == light {
-                    pmf
-                } else {
-                    0.0
+                let first = child & !LIGHT_LANE;
+                return match (light - first, node.pairs & (1 << lane) != 0) {
+                    (0, false) => pmf,
+                    (0, true) => pmf * self.pair_shares(first as usize).0,
+                    (1, true) => pmf * self.pair_shares(first as usize).1,
+                    _ => 0.0,
                 };
             }
             index = child as usize;
@@ -305,14 +319,22 @@ impl LightBvh {
         }
     }
 
+    /// The probabilities Φ_a / (Φ_a + Φ_b) and Φ_b / (Φ_a + Φ_b) with which a pair lane chooses
+    /// its lights a = `first` and b = `first + 1` (each Φ > 0).
+    #[inline(always)]
+    fn pair_shares(&self, first: usize) -> (f64, f64) {
+        let (a, b) = (f64::from(self.phi[first]), f64::from(self.phi[first + 1]));
+        (a / (a + b), b / (a + b))
+    }
+
     /// Number of lights in the tree.
     pub fn len(&self) -> usize {
-        self.lights
+        self.phi.len()
     }
 
     /// Whether the tree holds no light.
     pub fn is_empty(&self) -> bool {
-        self.lights == 0
+        self.phi.is_empty()
     }
 
     /// Number of (8-wide) nodes.
@@ -324,6 +346,7 @@ impl LightBvh {
     pub fn bytes(&self) -> usize {
         self.nodes.capacity() * std::mem::size_of::<WideNode>()
             + self.top.capacity() * std::mem::size_of::<Decoded>()
+            + self.phi.capacity() * std::mem::size_of::<f32>()
             + self.near.as_ref().map_or(0, NearField::bytes)
     }
 

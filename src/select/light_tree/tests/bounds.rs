@@ -361,7 +361,12 @@ fn wide_lanes_hold_their_lights() {
                 checked += 1;
                 let child = node.child(k);
                 if child & LIGHT_LANE != 0 {
-                    assert_eq!(child & !LIGHT_LANE, id as u32);
+                    // A pair lane's second light is the one after its first.
+                    let pair = u32::from(node.pairs >> k & 1);
+                    assert_eq!(
+                        child & !LIGHT_LANE,
+                        id as u32 - (id as u32 - node.first[k]).min(pair)
+                    );
                     break;
                 }
                 index = child as usize;

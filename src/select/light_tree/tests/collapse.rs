@@ -13,7 +13,7 @@ fn small_subtrees_take_the_fewest_wide_nodes() {
         let (binary, _, _, _) = binary_tree(scene.bounds.len(), |i| scene.bounds[i]);
         let lights = lights_below(&binary);
         for (index, &lights) in lights.iter().enumerate() {
-            if binary[index].is_leaf() || lights > SMALL_SUBTREE {
+            if is_unit(&binary, index) || lights > SMALL_SUBTREE {
                 continue;
             }
             let lane = Lane {
@@ -69,9 +69,9 @@ fn opened(binary: &[Node], v: usize) -> [Option<usize>; LANES] {
 }
 
 /// Entry j − 1: the fewest wide nodes that node `x` as exactly j lanes brings: kept as one lane
-/// (none for a light, its own and those below for a subtree) or opened.
+/// (none for a light or a pair, its own and those below for a subtree) or opened.
 fn as_lanes(binary: &[Node], x: usize) -> [Option<usize>; LANES] {
-    if binary[x].is_leaf() {
+    if is_unit(binary, x) {
         let mut light = [None; LANES];
         light[0] = Some(0);
         return light;

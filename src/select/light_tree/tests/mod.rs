@@ -310,4 +310,5 @@ mod bounds;
 mod collapse;
 mod lobe;
 mod near_field;
+mod pairs;
 mod sampling;

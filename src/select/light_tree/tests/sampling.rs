@@ -14,14 +14,21 @@ fn sampled_frequencies_match_pmf() {
             let scene = random_scene(&mut scene_rng, count);
             let (bvh, order) = LightBvh::build(&scene.bounds);
             assert_eq!((bvh.len(), order.len()), (count, count));
-            // Every light in one lane, every node but the root in one lane.
+            // Every light in one lane (a pair lane holds two), every node but the root in one
+            // lane.
             let lanes = |leaf: bool| {
                 let is = |node: &WideNode, k: usize| {
                     node.first[k] != EMPTY_LANE && (node.child(k) & LIGHT_LANE != 0) == leaf
                 };
+                let held = |node: &WideNode, k: usize| 1 + usize::from(node.pairs >> k & 1);
                 bvh.nodes
                     .iter()
-                    .map(|node| (0..LANES).filter(|&k| is(node, k)).count())
+                    .map(|node| {
+                        (0..LANES)
+                            .filter(|&k| is(node, k))
+                            .map(|k| if leaf { held(node, k) } else { 1 })
+                            .sum::<usize>()
+                    })
                     .sum::<usize>()
             };
             assert_eq!((lanes(true), lanes(false) + 1), (count, bvh.node_count()));
