@@ -10,9 +10,9 @@
 //! lights are cut with the fewest wide nodes instead ([`super::small_cut`]).
 //! A node of two lights that its bounds cannot tell apart ([`is_pair`]: the
 //! triangles of a quad) counts as a leaf: one lane, whose light is chosen in
-//! proportion to power. Lanes keep light-id order, so each lane covers a contiguous id range
-//! starting at `first`, and `pmf` can find the lane holding a light without
-//! parent links. The nodes of a node's interior lanes are consecutive, so one
+//! proportion to power. Lanes keep light-id order, so each lane covers a
+//! contiguous id range starting at `first`, and `pmf` can find the lane
+//! holding a light without parent links. The nodes of a node's interior lanes are consecutive, so one
 //! index per node finds them all.
 
 use glam::{DVec3, Vec3, Vec3A};
@@ -179,7 +179,10 @@ impl WideNode {
             if !is_unit(binary, lane.index) {
                 node.interior |= 1 << k;
             } else if is_pair(binary, lane.index) {
+                debug_assert_eq!(binary[lane.index + 1].link as usize, lane.first);
                 node.pairs |= 1 << k;
+            } else {
+                debug_assert_eq!(binary[lane.index].link as usize, lane.first);
             }
         }
         node

@@ -30,36 +30,40 @@ fn facade(rng: &mut Rand, side: usize) -> Vec<LightBounds> {
 #[test]
 fn a_quads_triangles_share_a_lane_chosen_by_power() {
     let mut rng = Rand::new(41);
-    let lights = facade(&mut rng, 40);
-    let (bvh, order) = LightBvh::build(&lights);
-    let pairs: Vec<u32> = bvh
-        .nodes
-        .iter()
-        .flat_map(|node| {
-            (0..LANES)
-                .filter(move |&k| node.pairs >> k & 1 != 0)
-                .map(move |k| node.first[k])
-        })
-        .collect();
-    // Every quad is a pair, of its own two triangles.
-    assert_eq!(pairs.len(), lights.len() / 2);
-    for &first in &pairs {
-        let (a, b) = (order[first as usize], order[first as usize + 1]);
-        assert_eq!(a / 2, b / 2, "lights {a} and {b} are not one quad's");
-    }
     let mut checked = 0;
-    for _ in 0..40 {
-        let p = rng.point(-12.0, 12.0) * Vec3::new(1.0, 1.0, 0.0) + Vec3::Z * rng.range(0.05, 4.0);
-        let n = (rng.unit() - Vec3::Z * 1.5).normalize();
-        check_frequencies(&bvh, p, n, 20_000, &mut rng);
+    // One quad alone (the root's only lane is the pair), and a facade of 1,600.
+    for side in [1, 40] {
+        let lights = facade(&mut rng, side);
+        let (bvh, order) = LightBvh::build(&lights);
+        let pairs: Vec<u32> = bvh
+            .nodes
+            .iter()
+            .flat_map(|node| {
+                (0..LANES)
+                    .filter(move |&k| node.pairs >> k & 1 != 0)
+                    .map(move |k| node.first[k])
+            })
+            .collect();
+        // Every quad is a pair, of its own two triangles.
+        assert_eq!(pairs.len(), lights.len() / 2);
         for &first in &pairs {
-            let (first, second) = (first as usize, first as usize + 1);
-            let (p_first, p_second) = (bvh.pmf(p, n, first), bvh.pmf(p, n, second));
-            if p_first > 0.0 {
-                let phi = |id: usize| f64::from(lights[order[id] as usize].phi);
-                let ratio = p_second / p_first / (phi(second) / phi(first));
-                assert!((ratio - 1.0).abs() < 1e-12, "pair {first}: {ratio}");
-                checked += 1;
+            let (a, b) = (order[first as usize], order[first as usize + 1]);
+            assert_eq!(a / 2, b / 2, "lights {a} and {b} are not one quad's");
+        }
+        for _ in 0..40 {
+            let across = rng.point(-12.0, 12.0) * Vec3::new(1.0, 1.0, 0.0);
+            let p = across + Vec3::Z * rng.range(0.05, 4.0);
+            let n = (rng.unit() - Vec3::Z * 1.5).normalize();
+            check_frequencies(&bvh, p, n, 20_000, &mut rng);
+            for &first in &pairs {
+                let (first, second) = (first as usize, first as usize + 1);
+                let (p_first, p_second) = (bvh.pmf(p, n, first), bvh.pmf(p, n, second));
+                if p_first > 0.0 {
+                    let phi = |id: usize| f64::from(lights[order[id] as usize].phi);
+                    let ratio = p_second / p_first / (phi(second) / phi(first));
+                    assert!((ratio - 1.0).abs() < 1e-12, "pair {first}: {ratio}");
+                    checked += 1;
+                }
             }
         }
     }
