@@ -236,21 +236,21 @@ impl LightBvh {
             let (lane, below, importance) = choose_lane(&lanes, target);
             pmf *= importance / total;
             let child = node.child(lane);
-            // Rescaled only where another choice follows.
-            let rescaled = || ((target - below) / importance).clamp(0.0, LARGEST_BELOW_ONE);
             if child & LIGHT_LANE != 0 {
                 let mut light = (child & !LIGHT_LANE) as usize;
                 if node.pairs & (1 << lane) != 0 {
-                    let (first, second) = self.pair_shares(light);
-                    if rescaled() < first {
-                        pmf *= first;
-                    } else {
-                        (light, pmf) = (light + 1, pmf * second);
-                    }
+                    // The first light when u, rescaled to the lane, is below Φ_a / (Φ_a + Φ_b):
+                    // compared without dividing.
+                    let (a, b) = self.pair_powers(light);
+                    let first = (target - below) * (a + b) < a * importance;
+                    light += usize::from(!first);
+                    let chosen = if first { a } else { b };
+                    pmf *= chosen / (a + b);
                 }
                 return (pmf > 0.0).then_some((light, pmf));
             }
-            u = rescaled();
+            // Rescaled only where another choice follows.
+            u = ((target - below) / importance).clamp(0.0, LARGEST_BELOW_ONE);
             // The node is looked up once: `below_root`'s own lookup of it is the same check.
             let index = child as usize;
             node = self.nodes.get(index)?;
@@ -304,10 +304,13 @@ impl LightBvh {
             let child = node.child(lane);
             if child & LIGHT_LANE != 0 {
                 let first = child & !LIGHT_LANE;
-                return match (light - first, node.pairs & (1 << lane) != 0) {
-                    (0, false) => pmf,
-                    (0, true) => pmf * self.pair_shares(first as usize).0,
-                    (1, true) => pmf * self.pair_shares(first as usize).1,
+                if node.pairs & (1 << lane) == 0 {
+                    return if light == first { pmf } else { 0.0 };
+                }
+                let (a, b) = self.pair_powers(first as usize);
+                return match light - first {
+                    0 => pmf * (a / (a + b)),
+                    1 => pmf * (b / (a + b)),
                     _ => 0.0,
                 };
             }
@@ -319,12 +322,11 @@ impl LightBvh {
         }
     }
 
-    /// The probabilities Φ_a / (Φ_a + Φ_b) and Φ_b / (Φ_a + Φ_b) with which a pair lane chooses
-    /// its lights a = `first` and b = `first + 1` (each Φ > 0).
+    /// The powers Φ_a, Φ_b (each > 0) of a pair lane's lights a = `first` and b = `first + 1`,
+    /// which it chooses with probabilities Φ_a / (Φ_a + Φ_b) and Φ_b / (Φ_a + Φ_b).
     #[inline(always)]
-    fn pair_shares(&self, first: usize) -> (f64, f64) {
-        let (a, b) = (f64::from(self.phi[first]), f64::from(self.phi[first + 1]));
-        (a / (a + b), b / (a + b))
+    fn pair_powers(&self, first: usize) -> (f64, f64) {
+        (f64::from(self.phi[first]), f64::from(self.phi[first + 1]))
     }
 
     /// Number of lights in the tree.
