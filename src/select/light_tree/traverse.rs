@@ -242,10 +242,9 @@ impl LightBvh {
                     // The first light when u, rescaled to the lane, is below Φ_a / (Φ_a + Φ_b):
                     // compared without dividing.
                     let (a, b) = self.pair_powers(light);
-                    let first = (target - below) * (a + b) < a * importance;
-                    light += usize::from(!first);
-                    let chosen = if first { a } else { b };
-                    pmf *= chosen / (a + b);
+                    let second = (target - below) * (a + b) >= a * importance;
+                    pmf *= self.pair_share(light, second);
+                    light += usize::from(second);
                 }
                 return (pmf > 0.0).then_some((light, pmf));
             }
@@ -307,10 +306,8 @@ impl LightBvh {
                 if node.pairs & (1 << lane) == 0 {
                     return if light == first { pmf } else { 0.0 };
                 }
-                let (a, b) = self.pair_powers(first as usize);
                 return match light - first {
-                    0 => pmf * (a / (a + b)),
-                    1 => pmf * (b / (a + b)),
+                    k @ (0 | 1) => pmf * self.pair_share(first as usize, k == 1),
                     _ => 0.0,
                 };
             }
@@ -322,11 +319,19 @@ impl LightBvh {
         }
     }
 
-    /// The powers Φ_a, Φ_b (each > 0) of a pair lane's lights a = `first` and b = `first + 1`,
-    /// which it chooses with probabilities Φ_a / (Φ_a + Φ_b) and Φ_b / (Φ_a + Φ_b).
+    /// The powers Φ_a, Φ_b (each > 0) of a pair lane's lights a = `first` and b = `first + 1`.
     #[inline(always)]
     fn pair_powers(&self, first: usize) -> (f64, f64) {
         (f64::from(self.phi[first]), f64::from(self.phi[first + 1]))
+    }
+
+    /// The probability with which a pair lane chooses its light a = `first` (Φ_a / (Φ_a + Φ_b))
+    /// or, if `second`, b = `first + 1` (Φ_b / (Φ_a + Φ_b)): one expression for `sample` and
+    /// `pmf`, so both give the same bits.
+    #[inline(always)]
+    fn pair_share(&self, first: usize, second: bool) -> f64 {
+        let (a, b) = self.pair_powers(first);
+        (if second { b } else { a }) / (a + b)
     }
 
     /// Number of lights in the tree.

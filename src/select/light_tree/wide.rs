@@ -12,8 +12,8 @@
 //! triangles of a quad) counts as a leaf: one lane, whose light is chosen in
 //! proportion to power. Lanes keep light-id order, so each lane covers a
 //! contiguous id range starting at `first`, and `pmf` can find the lane
-//! holding a light without parent links. The nodes of a node's interior lanes are consecutive, so one
-//! index per node finds them all.
+//! holding a light without parent links. The nodes of a node's interior lanes
+//! are consecutive, so one index per node finds them all.
 
 use glam::{DVec3, Vec3, Vec3A};
 use rayon::prelude::*;

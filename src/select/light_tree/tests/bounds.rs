@@ -361,12 +361,9 @@ fn wide_lanes_hold_their_lights() {
                 checked += 1;
                 let child = node.child(k);
                 if child & LIGHT_LANE != 0 {
-                    // A pair lane's second light is the one after its first.
-                    let pair = u32::from(node.pairs >> k & 1);
-                    assert_eq!(
-                        child & !LIGHT_LANE,
-                        id as u32 - (id as u32 - node.first[k]).min(pair)
-                    );
+                    // The lane's light, or for a pair lane its first light or the next.
+                    let (first, pair) = (child & !LIGHT_LANE, u32::from(node.pairs >> k & 1));
+                    assert!((first..=first + pair).contains(&(id as u32)), "light {id}");
                     break;
                 }
                 index = child as usize;
