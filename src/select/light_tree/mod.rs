@@ -43,7 +43,8 @@
 //! choice), `cost` (the split cost's orientation term in SIMD lanes), `build`
 //! (parallel subtree construction), `wide` (8-wide nodes and the collapse),
 //! `small_cut` (the collapse of small subtrees), `lanes` (the SIMD importance),
-//! `near_field` (the root's distance and direction terms from a table),
+//! `near_field` (the distance and direction terms of the root's and its children's lanes from
+//! tables),
 //! `traverse` (LightBvh: build entry, sample, pmf), `tests`.
 
 mod bounds;

@@ -1,9 +1,10 @@
-//! The root's distance and direction terms from a table: for each root lane k, the sum
+//! The distance and direction terms of the root's lanes, and of its children's, from tables: for
+//! each lane k of such a node, the sum
 //!     T_k(x) = Σ_{i in lane k} Φ_i / max(|x − x_i|², ε)
 //! over its lights (x_i a light's box centre, ε = ¼ of a grid cell's largest side squared), and
 //! the same sum split by direction, D_k,±a(x) = Σ_i Φ_i · max(0, ±ω_i,a) / max(|x − x_i|², ε)
-//! (ω_i the unit vector from x toward x_i, a one of the three axes), on a grid of 4096 points with
-//! near-cubic cells over the lights' box. At a receiver p with unit normal n, T_k(p) is read by
+//! (ω_i the unit vector from x toward x_i, a one of the three axes), on a grid with near-cubic
+//! cells over the node's lights' box: 4096 points for the root, 512 for each of its children. At a receiver p with unit normal n, T_k(p) is read by
 //! trilinear interpolation and the lane's receiver-weighted sum Σ Φ_i · max(0, n·ω_i) / d_i² is
 //! estimated as T_k(p) · Σ_a n_a² · s_k,sign(n_a)·a, s = D / T at the grid point nearest p (an
 //! "ambient cube": exact for a normal along an axis, as most surfaces of the town and the city
@@ -35,8 +36,11 @@ use rayon::prelude::*;
 
 use super::*;
 
-/// Grid points in all (the table's 160 KiB), spread over the axes so that cells are near cubes.
-const POINTS: usize = 4096;
+/// Grid points of the root's table (160 KiB), spread over the axes so that cells are near cubes.
+pub(super) const ROOT_POINTS: usize = 4096;
+/// Grid points of each table of a child of the root (20 KiB). A child's lights fill about an
+/// eighth of the root's box, so its cells are about the size of the root's.
+const CHILD_POINTS: usize = 512;
 /// The code of a direction sum equal to T (four bits).
 const SHARE_MAX: f32 = 15.0;
 /// The grid's margin around the lights, as a share of their box's size.
@@ -51,7 +55,76 @@ const OPEN: f32 = 4.0;
 /// of the point's (the worst case: d = √ε).
 const SMALL: f32 = 0.25;
 
-/// The table over the root's lanes (see the module header).
+/// The tables of the root (node 0) and of the root's children, by node index.
+#[derive(Clone, Debug, Default)]
+pub(super) struct NearTables {
+    /// Entry i: node i's table, if it has one; at most 1 + [`LANES`] entries.
+    tables: Vec<Option<NearField>>,
+}
+
+impl NearTables {
+    /// The tables of the root of `nodes` (`reach`: their lanes' [`Reach`]) and of its children,
+    /// each over its own lights' `points` (in leaf order, so a node's are one run); see
+    /// [`NearField::build`].
+    pub(super) fn build(
+        nodes: &[WideNode],
+        reach: &[Reach],
+        points: &[PowerPoint],
+        avx2: bool,
+    ) -> NearTables {
+        let Some(root) = nodes.first() else {
+            return NearTables::default();
+        };
+        let mut tables = vec![NearField::build(nodes, reach, points, 0, ROOT_POINTS, avx2)];
+        let ends = lane_ends(root, points.len());
+        for k in (0..LANES).filter(|&k| root.interior & (1 << k) != 0) {
+            let child = root.child(k) as usize;
+            let lights = &points[root.first[k] as usize..ends[k]];
+            if tables.len() <= child {
+                tables.resize_with(child + 1, || None);
+            }
+            tables[child] = NearField::build(nodes, reach, lights, child, CHILD_POINTS, avx2);
+        }
+        NearTables { tables }
+    }
+
+    /// The terms of node `index`'s lanes at a receiver at `p` with unit normal `n`: `None` for
+    /// a node without a table or a receiver outside its grid.
+    #[inline(always)]
+    pub(super) fn at(&self, index: usize, p: Vec3, n: Vec3) -> Option<NearTerms> {
+        self.tables.get(index)?.as_ref()?.at(p, n)
+    }
+
+    /// Whether node `index` may have a table: the root and nodes just after it.
+    #[inline(always)]
+    pub(super) fn may_have(&self, index: usize) -> bool {
+        index < self.tables.len()
+    }
+
+    /// Node `index`'s table.
+    #[cfg(test)]
+    pub(super) fn of(&self, index: usize) -> Option<&NearField> {
+        self.tables.get(index)?.as_ref()
+    }
+
+    /// Heap bytes held.
+    pub(super) fn bytes(&self) -> usize {
+        self.tables.iter().flatten().map(NearField::bytes).sum()
+    }
+}
+
+/// The end (one past the last light id) of each lane's range in `node`, whose range ends at
+/// `end`: the next used lane's first id, or `end` for the last (unused lanes: `end`).
+pub(super) fn lane_ends(node: &WideNode, end: usize) -> [usize; LANES] {
+    std::array::from_fn(|k| {
+        node.first[k + 1..]
+            .iter()
+            .find(|&&first| first != EMPTY_LANE)
+            .map_or(end, |&next| next as usize)
+    })
+}
+
+/// The table over one node's lanes (see the module header).
 #[derive(Clone, Debug)]
 pub(super) struct NearField {
     /// Grid point (i, j, k) lies at `lo` + `cell` · (i, j, k), i < `dims[0]` and so on.
@@ -103,18 +176,21 @@ pub(super) struct NearTerms {
 }
 
 impl NearField {
-    /// The table of `nodes`' root (`reach`: their lanes' [`Reach`]), on a grid over the box of
-    /// the lights' `points` widened on each side by [`MARGIN`] of its size along that axis (of
-    /// its largest side along an axis without extent); `None` for an empty tree or lights all
-    /// at one point. `avx2` (true only where the CPU has AVX2 and FMA) sums with the copy
-    /// compiled for them, which gives the same table.
+    /// The table of node `node` of `nodes` (`reach`: their lanes' [`Reach`]), on a grid of at
+    /// most `points_max` points over the box of its lights' `points` widened on each side by
+    /// [`MARGIN`] of its size along that axis (of its largest side along an axis without
+    /// extent); `None` for a node that does not exist, no lights, or lights all at one point.
+    /// `avx2` (true only where the CPU has AVX2 and FMA) sums with the copy compiled for them,
+    /// which gives the same table.
     pub(super) fn build(
         nodes: &[WideNode],
         reach: &[Reach],
         points: &[PowerPoint],
+        node: usize,
+        points_max: usize,
         avx2: bool,
     ) -> Option<NearField> {
-        if nodes.is_empty() {
+        if node >= nodes.len() || points.is_empty() {
             return None;
         }
         let (lo, hi) = points.iter().fold(
@@ -134,7 +210,7 @@ impl NearField {
         if !(size.min_element() > 0.0 && size.is_finite()) {
             return None;
         }
-        let dims = dims(size);
+        let dims = dims(size, points_max);
         let cell = size / Vec3::from_array(dims.map(|d| (d - 1) as f32));
         let floor = floor(cell);
         let small = SMALL * cell.max_element();
@@ -143,6 +219,7 @@ impl NearField {
             reach,
             floor,
             small,
+            node,
         };
         let (plain, shares) = (0..dims.iter().product())
             .into_par_iter()
@@ -261,9 +338,9 @@ impl NearField {
     }
 }
 
-/// Grid points along each axis of a box of `size`: at least 2, at most [`POINTS`] in all, added
+/// Grid points along each axis of a box of `size`: at least 2, at most `points_max` in all, added
 /// one at a time along the axis of the longest cell.
-fn dims(size: Vec3) -> [usize; 3] {
+fn dims(size: Vec3, points_max: usize) -> [usize; 3] {
     let mut dims = [2usize; 3];
     loop {
         let cell = |a: usize| size[a] / (dims[a] - 1) as f32;
@@ -271,7 +348,7 @@ fn dims(size: Vec3) -> [usize; 3] {
             .max_by(|&a, &b| cell(a).total_cmp(&cell(b)))
             .unwrap_or(0);
         let more = dims.iter().product::<usize>() / dims[axis] * (dims[axis] + 1);
-        if more > POINTS {
+        if more > points_max {
             return dims;
         }
         dims[axis] += 1;
@@ -283,9 +360,9 @@ pub(super) fn floor(cell: Vec3) -> f32 {
     0.25 * cell.max_element() * cell.max_element()
 }
 
-/// T and D at x before they are coded (see the module header) over `nodes` and their lanes'
-/// `reach`, for a table of grid cells `cell`, summed by the portable copy or, with `avx2`, the
-/// AVX2 one.
+/// T and D at x before they are coded (see the module header) over the lanes of the root of
+/// `nodes` and their `reach`, for a table of grid cells `cell`, summed by the portable copy or,
+/// with `avx2`, the AVX2 one.
 #[cfg(test)]
 pub(super) fn sums_at(
     nodes: &[WideNode],
@@ -299,33 +376,35 @@ pub(super) fn sums_at(
         reach,
         floor: floor(cell),
         small: SMALL * cell.max_element(),
+        node: 0,
     };
     let sums = sums.at(x, avx2);
     (sums.plain, sums.toward)
 }
 
-/// What [`LaneSums::node_sums`] reads: the tree, each lane's R ([`Reach`]), ε and the R up to
-/// which a lane is summed whole.
+/// What [`LaneSums::node_sums`] reads: the tree, each lane's R ([`Reach`]), ε, the R up to
+/// which a lane is summed whole, and the node whose lanes are summed.
 struct LaneSums<'a> {
     nodes: &'a [WideNode],
     reach: &'a [Reach],
     floor: f32,
     small: f32,
+    node: usize,
 }
 
 impl LaneSums<'_> {
-    /// T and D (see the module header) at grid point x, from the root down; with `avx2` (which
+    /// T and D (see the module header) at grid point x, from the node down; with `avx2` (which
     /// only a CPU with AVX2 and FMA may ask for) by the copy compiled for it, the same bits.
     fn at(&self, x: Vec3, avx2: bool) -> Sums {
         let mut sums = Sums::default();
         #[cfg(target_arch = "x86_64")]
         if avx2 {
             // SAFETY: the caller asks for AVX2 only where the CPU reported AVX2 and FMA.
-            unsafe { self.node_sums_avx2(0, x, &mut sums) };
+            unsafe { self.node_sums_avx2(self.node, x, &mut sums) };
             return sums;
         }
         let _ = avx2;
-        self.node_sums(0, x, &mut sums);
+        self.node_sums(self.node, x, &mut sums);
         sums
     }
 

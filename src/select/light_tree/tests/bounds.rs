@@ -203,7 +203,7 @@ fn kept_decoded_nodes_give_the_same_importances_as_their_codes() {
     let (mut compared, mut with_table) = (0, 0);
     for (p, n) in receivers(&mut rng, &scene, 60) {
         let glossy = random_lobe(&mut rng, n);
-        let near = bvh.near.as_ref().and_then(|field| field.at(p, n));
+        let near = bvh.near.at(0, p, n);
         with_table += usize::from(near.is_some());
         for node in &bvh.nodes {
             let decoded = Decoded::of(node);

@@ -8,6 +8,8 @@ use super::*;
 fn sampled_frequencies_match_pmf() {
     let mut rng = Rand::new(1);
     let (mut points, mut with_dead_ends, mut dead_mass) = (0, 0, 0.0f64);
+    // Receivers inside the grid of a table below the root's, whose terms the walk then reads.
+    let mut in_child_tables = 0;
     for &count in &[1, 2, 3, 100, 5000] {
         for seed in 0..3 {
             let mut scene_rng = Rand::new(100 * count as u64 + seed);
@@ -35,6 +37,8 @@ fn sampled_frequencies_match_pmf() {
             for (p, n) in receivers(&mut rng, &scene, 6) {
                 let dead = check_frequencies(&bvh, p, n, 10_000, &mut rng);
                 points += 1;
+                in_child_tables +=
+                    usize::from((1..=LANES).any(|index| bvh.near.at(index, p, n).is_some()));
                 with_dead_ends += usize::from(dead > 0.0);
                 dead_mass = dead_mass.max(dead);
             }
@@ -42,7 +46,12 @@ fn sampled_frequencies_match_pmf() {
     }
     println!(
         "{with_dead_ends} of {points} shading points can reach a node whose children all \
-         have importance 0 (largest probability {dead_mass:.3})"
+         have importance 0 (largest probability {dead_mass:.3}); {in_child_tables} lie in a \
+         child's table"
+    );
+    assert!(
+        in_child_tables >= 6,
+        "{in_child_tables} receivers in a child's table"
     );
 }
 
