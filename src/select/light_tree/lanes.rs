@@ -226,8 +226,8 @@ fn weighted(cos_sharp: f32, cos_whole: f32, outside_sharp: bool, outside: bool) 
 /// check). The node's codes are first decoded into f32 arrays, field by field; then
 /// written lane by lane over those arrays, which the compiler turns into SIMD
 /// across the eight lanes (8-wide where the caller enables AVX).
-/// `near`, when given, holds each lane's Σ Φ_i / d_i² at p (its node's table, [`NearTables`]), which
-/// then stands for its Φ / d².
+/// `near`, when given, holds each lane's Σ Φ_i / d_i² at p (its node's table, [`NearTables`]),
+/// which then stands for its Φ / d².
 #[inline(always)]
 pub(super) fn importances(
     node: &WideNode,
