@@ -52,8 +52,8 @@
 //! city 0.887 / 1.272 / 1.136; one camera sample's lit-surface MSE (as above) town 7.05 →
 //! 5.72 (seed 2000: 7.03 → 5.77), city 7.96 → 8.28 (seeds 1000–4000: mean 8.34 → 7.54).
 //! The table also splits each lane's sum by direction, and at a receiver its estimate of
-//! Σ Φ_i · max(0, n·ω_i) / d_i², raised to at least `DIRECTED_FLOOR` (½) of the lane's
-//! T · E · R, stands for T · E · R: a facade then tells the lights in front of it from those
+//! Σ Φ_i · max(0, n·ω_i) / d_i², raised to at least the table's floor (½ at the root) of the
+//! lane's T · E · R, stands for T · E · R: a facade then tells the lights in front of it from those
 //! behind it. W²-weighted / mean / median χ² town 0.722 / 0.953 / 0.698 → 0.673 / 0.893 /
 //! 0.628, city 0.887 / 1.272 / 1.136 → 0.843 / 1.152 / 1.000; the shadowed variance over the
 //! oracle's town 2.96 → 2.83, city 9.76 → 9.56; one camera sample's lit-surface MSE town 5.725 →
@@ -63,15 +63,18 @@
 //! at 0.5 it was 7.51); weighting each light's term by its emitter's cosine as well made the
 //! town worse (6.40 with a floor of 0.1, 5.40 with 0.5).
 //! The root's children, whose lanes still hold hundreds of lights, read tables of their own
-//! (512 points each). One camera sample's lit-surface MSE − Var[ref] (`bench --spp 1 --repeat
-//! 100 --width 320`): town 6.51 → 5.95 (seeds 1000, 2000; 128, 256, 1024, 2048 and 4096 points
-//! gave 6.50, 6.29, 6.08, 6.00 and 5.94), the peers' Lambert copy of the 50k city 1.162 → 1.140
-//! (seeds 1000–4000), the 50k city 2.431 → 2.429 (seeds 1000–8000). The cities' lit relMSE rose
-//! by 2.8% and 3.7%, the town's fell by 6.5%: finer tables, at the root as well, lowered the
-//! cities' MSE and raised their relMSE every time, as more of the choices go to the lights that
-//! matter most. Reading the tables only for lanes wider than three cells (the others keeping
-//! their own Φ / d²) made the town worse than no child tables (7.07), and a quarter of the own
-//! term as a floor under the table's value left both scenes worse than the tables alone.
+//! (512 points each, the estimate's floor ¼; `near_field`'s `CHILD_TABLE`). One camera sample's
+//! lit-surface MSE − Var[ref] (`bench --spp 1 --repeat 100 --width 320`): town 6.51 → 5.85
+//! (seeds 1000, 2000; with the root's floor of ½ 5.95, and 128, 256, 1024, 2048 and 4096 points
+//! gave 6.50, 6.29, 6.08, 6.00 and 5.94), the peers' Lambert copy of the 50k city 1.162 → 1.121
+//! (seeds 1000–4000), the 50k city 2.431 → 2.409 (seeds 1000–8000); W²-weighted / mean / median
+//! χ² town 0.656 / 0.875 / 0.624 → 0.586 / 0.800 / 0.591, city 0.799 / 1.148 / 0.998 → 0.778 /
+//! 1.092 / 1.007. The cities' lit relMSE rose by 2.2% and 2.3%, the town's fell by 9%: finer
+//! tables, at the root as well, lowered the cities' MSE and raised their relMSE every time, as
+//! more of the choices go to the lights that matter most. Reading the tables only for lanes
+//! wider than three cells (the others keeping their own Φ / d²) made the town worse than no
+//! child tables (7.07), and a quarter of the own term as a floor under the table's value left
+//! both scenes worse than the tables alone.
 //! At a glossy receiver every lane's value is multiplied by its specular lobe factor
 //! 1 + g / (1 + λ·(1 − cos θm))² ([`Lobe`]; θm the angle from the mirror direction less θb),
 //! which is ≥ 1 and finite, so the lanes that get 0 are the same. One camera sample's lit-surface
@@ -95,10 +98,6 @@ const INSIDE_FLOOR: f32 = 0.25;
 const SPREAD_WEIGHT: f32 = 1.5;
 /// The least d² in units of σ².
 const SPREAD_FLOOR: f32 = 0.5;
-
-/// The least share of a root lane's T · E · R (its table's plain sum times its weighted
-/// cosines) that its table's receiver-weighted estimate is raised to (`near_field`).
-const DIRECTED_FLOOR: f32 = 0.5;
 
 /// A glossy receiver's specular lobe for the lanes' lobe factor
 /// 1 + g / (1 + λ·(1 − cos θm))², θm = max(0, ∠(r, c − p) − θb): r the mirror direction of
@@ -266,11 +265,16 @@ fn lane_importances(
     // A flag for the node and a plain array, not an Option per lane: the lanes then stay one
     // SIMD computation (an Option per lane made criterion's `sample` 980 ns against 315).
     let use_near = near.is_some();
-    let NearTerms { plain, directed } = near.unwrap_or(NearTerms {
+    let NearTerms {
+        plain,
+        directed,
+        directed_floor,
+    } = near.unwrap_or(NearTerms {
         plain: [0.0; LANES],
         directed: [0.0; LANES],
+        directed_floor: 0.0,
     });
-    let near = (&plain, &directed);
+    let near = (&plain, &directed, directed_floor);
     // The lobe factor is 1 exactly without a gain: a receiver without a lobe skips it. Each case
     // is compiled on its own, so that no choice between them is left in the lanes.
     match (lobe.gain > 0.0, receiver) {
@@ -290,11 +294,11 @@ fn lanes<const GLOSSY: bool, const RECEIVER: bool>(
     n: Vec3,
     lobe: &Lobe,
     use_near: bool,
-    (plain, directed): (&[f32; LANES], &[f32; LANES]),
+    (plain, directed, directed_floor): (&[f32; LANES], &[f32; LANES], f32),
 ) -> [f32; LANES] {
     let mut out = [0.0; LANES];
     for (k, out) in out.iter_mut().enumerate() {
-        let near = (plain[k], directed[k]);
+        let near = (plain[k], directed[k], directed_floor);
         *out = lane::<GLOSSY, RECEIVER>(&bounds(k), p, n, lobe, use_near, near);
     }
     out
@@ -419,7 +423,7 @@ fn lane<const GLOSSY: bool, const RECEIVER: bool>(
     n: Vec3,
     lobe: &Lobe,
     use_near: bool,
-    (near, directed): (f32, f32),
+    (near, directed, directed_floor): (f32, f32, f32),
 ) -> f32 {
     let to_p = [
         p.x - node.centre[0],
@@ -488,7 +492,7 @@ fn lane<const GLOSSY: bool, const RECEIVER: bool>(
         max(SPREAD_FLOOR * spread_sq, f32::MIN_POSITIVE),
     );
     let value = match (use_near, RECEIVER) {
-        (true, true) => max(directed, DIRECTED_FLOOR * near * factor),
+        (true, true) => max(directed, directed_floor * near * factor),
         (true, false) => near * factor,
         (false, _) => phi / d_sq * factor,
     };

@@ -256,7 +256,7 @@ fn the_sums_are_the_same_in_eight_lanes() {
     let scene = random_scene(&mut Rand::new(29), 3000);
     let (binary, grid, _, points) = binary_tree(scene.bounds.len(), |i| scene.bounds[i]);
     let (nodes, reach) = collapse(&binary, &grid, &points);
-    let field = NearField::build(&nodes, &reach, &points, 0, near_field::ROOT_POINTS, false)
+    let field = NearField::build(&nodes, &reach, &points, 0, near_field::ROOT_TABLE, false)
         .expect("a table");
     let [nx, ny, nz] = field.dims;
     let mut opened = 0;
