@@ -10,17 +10,18 @@
 //! s_k,sign(n_a)·a, s = D / T at the grid point nearest p (an "ambient cube": exact for a normal
 //! along an axis, as most surfaces of the town and the city are; otherwise a smooth stand-in, 1/√3
 //! of the truth for a light straight along a diagonal normal, and above 0 for a light just below
-//! the horizon of such a normal). That estimate, raised to at least [`super::lanes`]' share of T_k
-//! times the lane's weighted cosines, stands for the lane's Φ / d² times its cosines. The root's
-//! lanes hold thousands of lights each, tens of metres across: one distance cannot tell a receiver
-//! beside one of its lamps from one in the middle of nowhere, and that is where most of the tree's
-//! excess error over the oracle sat (facade receivers 1–3 m from lamps and neon had p/q of 0.26–0.5
-//! at the root on the town); nor can the lane's bounding sphere tell a facade facing its lights
-//! from one facing away. A point holds T as bfloat16 (0.4% at most off) and each D as its share of
-//! T in 4 bits (D ≤ T; the share within 1/30): 40 bytes a point, 160 KiB for the root's table and
-//! 20 KiB for each child's, 320 KiB in all, 0.32 bytes per light at 1M lights (the children's
-//! tables and what they gave: `lanes`). Trilinear shares cost eight points' decoding and gave
-//! 5.33 against 5.41 on the town (one camera sample's lit-surface MSE, `lanes`), the city alike.
+//! the horizon of such a normal). That estimate, raised to at least its table's share of T_k
+//! ([`TableKind`]) times the lane's weighted cosines, stands for the lane's Φ / d² times its
+//! cosines (`lanes`). The root's lanes hold thousands of lights each, tens of metres across: one
+//! distance cannot tell a receiver beside one of its lamps from one in the middle of nowhere, and
+//! that is where most of the tree's excess error over the oracle sat (facade receivers 1–3 m from
+//! lamps and neon had p/q of 0.26–0.5 at the root on the town); nor can the lane's bounding sphere
+//! tell a facade facing its lights from one facing away. A point holds T as bfloat16 (0.4% at most
+//! off) and each D as its share of T in 4 bits (D ≤ T; the share within 1/30): 40 bytes a point,
+//! 160 KiB for the root's table and 20 KiB for each child's, 320 KiB in all, 0.32 bytes per light
+//! at 1M lights (the children's tables and what they gave: `lanes`). Trilinear shares cost eight
+//! points' decoding and gave 5.33 against 5.41 on the town (one camera sample's lit-surface MSE,
+//! `lanes`), the city alike.
 //!
 //! The sums are built from the tree itself (Barnes–Hut): a lane counts as its power at its power
 //! centre c where the grid point lies more than [`OPEN`] times R from c (R bounds its lights'
@@ -271,8 +272,8 @@ impl NearField {
         })
     }
 
-    /// The root lanes' terms at `p` for a receiver with unit normal `n`, interpolated; `None`
-    /// outside the grid.
+    /// The terms of the table's node's lanes at `p` for a receiver with unit normal `n`,
+    /// interpolated; `None` outside the grid.
     #[inline(always)]
     pub(super) fn at(&self, p: Vec3, n: Vec3) -> Option<NearTerms> {
         let t = (p - self.lo) / self.cell;

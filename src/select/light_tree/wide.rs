@@ -272,8 +272,8 @@ pub(super) struct Lane {
 }
 
 /// For each lane of a wide node, a bound R on the distance of its lights' box centres from its
-/// coded power centre (that of the farthest corner of the centres' box), which the root's table
-/// ([`super::near_field`]) reads; 0 in unused lanes.
+/// coded power centre (that of the farthest corner of the centres' box), which the near-field
+/// tables ([`super::near_field`]) read; 0 in unused lanes.
 pub(super) type Reach = [f32; LANES];
 
 /// Below lanes of fewer lights the subtrees are collapsed by one rayon task each.
