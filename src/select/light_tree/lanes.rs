@@ -65,8 +65,8 @@
 //! The root's children, whose lanes still hold hundreds of lights, read tables of their own
 //! (512 points each, the estimate's floor ¼; `near_field`'s `CHILD_TABLE`). One camera sample's
 //! lit-surface MSE − Var[ref] (`bench --spp 1 --repeat 100 --width 320`): town 6.51 → 5.85
-//! (seeds 1000, 2000; with the root's floor of ½ 5.95, and 128, 256, 1024, 2048 and 4096 points
-//! gave 6.50, 6.29, 6.08, 6.00 and 5.94), the peers' Lambert copy of the 50k city 1.162 → 1.121
+//! (seeds 1000, 2000; with the root's floor of ½ it was 5.95, and at that floor 128, 256, 1024,
+//! 2048 and 4096 points gave 6.50, 6.29, 6.08, 6.00 and 5.94), the peers' Lambert copy of the 50k city 1.162 → 1.121
 //! (seeds 1000–4000), the 50k city 2.431 → 2.409 (seeds 1000–8000); W²-weighted / mean / median
 //! χ² town 0.656 / 0.875 / 0.624 → 0.586 / 0.800 / 0.591, city 0.799 / 1.148 / 0.998 → 0.778 /
 //! 1.092 / 1.007. The cities' lit relMSE rose by 2.2% and 2.3%, the town's fell by 9%: finer

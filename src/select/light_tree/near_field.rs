@@ -117,12 +117,6 @@ impl NearTables {
         self.tables.get(index)?.as_ref()?.at(p, n)
     }
 
-    /// Whether node `index` may have a table: the root and nodes just after it.
-    #[inline(always)]
-    pub(super) fn may_have(&self, index: usize) -> bool {
-        index < self.tables.len()
-    }
-
     /// Node `index`'s table.
     #[cfg(test)]
     pub(super) fn of(&self, index: usize) -> Option<&NearField> {

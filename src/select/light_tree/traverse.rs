@@ -373,16 +373,13 @@ impl LightBvh {
         self.lane_importances(index, p, n, lobe, near)
     }
 
-    /// [`importances`](Self::importances) at a node other than the root. The table is looked up
-    /// only for the nodes that may have one, and each case has its own copy of the lanes: a
-    /// lookup at every node, or one copy for both cases, lost the lanes' SIMD form (town, bvh +
-    /// mis: 1.7 → 2.7 µs per camera sample).
+    /// [`importances`](Self::importances) at a node other than the root. With and without table
+    /// terms each case has its own copy of the lanes: one copy for both (`importances` itself)
+    /// lost the lanes' SIMD form (town, bvh + mis: 1.7 → 2.7 µs per camera sample).
     #[inline(always)]
     fn below_root(&self, index: usize, p: Vec3, n: Vec3, lobe: Lobe) -> Option<Importances> {
-        if self.near.may_have(index) {
-            if let Some(near) = self.near.at(index, p, n) {
-                return self.lane_importances(index, p, n, lobe, Some(near));
-            }
+        if let Some(near) = self.near.at(index, p, n) {
+            return self.lane_importances(index, p, n, lobe, Some(near));
         }
         self.lane_importances(index, p, n, lobe, None)
     }

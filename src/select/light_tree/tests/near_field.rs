@@ -199,13 +199,9 @@ fn each_lanes_reach_bounds_its_lights_distance_from_its_power_centre() {
     while let Some((index, end)) = pending.pop() {
         let node = &nodes[index];
         let decoded = Decoded::of(node);
-        let used: Vec<usize> = (0..LANES)
-            .filter(|&k| node.first[k] != EMPTY_LANE)
-            .collect();
-        for (i, &k) in used.iter().enumerate() {
-            let lane_end = used
-                .get(i + 1)
-                .map_or(end, |&next| node.first[next] as usize);
+        let ends = lane_ends(node, end);
+        for k in (0..LANES).filter(|&k| node.first[k] != EMPTY_LANE) {
+            let lane_end = ends[k];
             let c = Vec3::new(
                 decoded.power_centre[0][k],
                 decoded.power_centre[1][k],
