@@ -429,9 +429,8 @@ impl Estimator<'_> {
         cs: &CameraSample,
         counts: &mut SampleCounts,
     ) -> Option<(Vec3, Option<Hit>)> {
-        let wi = x
-            .brdf
-            .sample(x.ns, x.wo, cs.bsdf_lobe(j), cs.bsdf_direction(j))?;
+        let (lobe, direction) = cs.bsdf_lobe_and_direction(j);
+        let wi = x.brdf.sample(x.ns, x.wo, lobe, direction)?;
         if x.ng.dot(wi) <= 0.0 {
             return None;
         }

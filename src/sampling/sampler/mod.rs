@@ -202,11 +202,12 @@ impl PixelSampler {
     /// independent sampler, as `get_1d`).
     #[inline(always)]
     fn get_2d(&self, dim: u64, per_sample: u64, s: u64, slot: u64) -> [u32; 2] {
-        if self.sampler.kind == SamplerKind::Independent {
-            let index = self.absolute(per_sample, s, slot);
-            return independent::sample_2d(index, self.seeds[dim as usize]);
+        let index = self.absolute(per_sample, s, slot);
+        match self.sampler.kind {
+            SamplerKind::Independent => independent::sample_2d(index, self.seeds[dim as usize]),
+            SamplerKind::Sobol => sobol::sample_2d(index, self.seeds[dim as usize]),
+            _ => self.get_2d_sequence(&self.point(dim, per_sample, s, slot)),
         }
-        self.get_2d_sequence(&self.point(dim, per_sample, s, slot))
     }
 
     #[inline(never)]
@@ -305,6 +306,20 @@ impl CameraSample<'_> {
             self.pixel.get_1d(BSDF_LOBE, sm.k * sm.n, self.s, j as u64)
         };
         to_f32(x)
+    }
+
+    /// [`bsdf_lobe`](Self::bsdf_lobe) and [`bsdf_direction`](Self::bsdf_direction) of slot j
+    /// together (the same numbers; Sobol's one 3D point is then shuffled once).
+    #[inline]
+    pub fn bsdf_lobe_and_direction(&self, j: u32) -> (f32, [f32; 2]) {
+        let sm = &self.pixel.sampler;
+        if sm.kind == SamplerKind::Sobol {
+            let index = self.pixel.absolute(sm.k * sm.n, self.s, j as u64);
+            let seed = self.pixel.seeds[BSDF_DIRECTION as usize];
+            let [x, y, lobe] = sobol::sample_3d(index, seed);
+            return (to_f32(lobe), [to_f32(x), to_f32(y)]);
+        }
+        (self.bsdf_lobe(j), self.bsdf_direction(j))
     }
 
     /// The 2D number that gives BSDF (or hemisphere) slot j's direction.

@@ -62,7 +62,7 @@ pub fn permute(index: u64, n: u64, seed: u64) -> u64 {
 /// Laine & Karras's hash (2011) as improved by Vegdahl and used by Burley 2020: a bijection of
 /// u32 in which each bit depends only on itself and the bits below it.
 #[inline]
-fn laine_karras(mut x: u32, seed: u32) -> u32 {
+pub fn laine_karras(mut x: u32, seed: u32) -> u32 {
     x ^= x.wrapping_mul(0x3d20_adea);
     x = x.wrapping_add(seed);
     x = x.wrapping_mul((seed >> 16) | 1);

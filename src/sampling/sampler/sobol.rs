@@ -7,7 +7,7 @@
 //! aligned blocks of 2^m indices onto aligned blocks, keeping every prefix of 2^m points a net)
 //! so groups are decorrelated, then each coordinate is Owen-scrambled, so each point is uniform.
 
-use super::scramble::{hash, owen_scramble, subseed};
+use super::scramble::{hash, laine_karras, owen_scramble, subseed};
 
 /// Generator matrix columns v_0 … v_31 (32-bit fractions) of Sobol's dimensions 1 and 2 from
 /// their primitive polynomials: x + 1 gives v_j = v_{j−1} ⊕ (v_{j−1} >> 1) (the Pascal matrix
@@ -31,7 +31,9 @@ const fn columns(dim: usize) -> [u32; 32] {
 }
 
 /// A dimension's columns as XOR tables, one per byte of the index: table[b][v] = ⊕ of the
-/// columns of the set bits of v·2^(8b).
+/// columns of the set bits of v·2^(8b). The definition that the tests check
+/// [`reversed_tables`] against.
+#[cfg(test)]
 const fn tables(dim: usize) -> [[u32; 256]; 4] {
     let columns = columns(dim);
     let mut tables = [[0u32; 256]; 4];
@@ -55,8 +57,36 @@ const fn tables(dim: usize) -> [[u32; 256]; 4] {
     tables
 }
 
-static DIM1: [[u32; 256]; 4] = tables(1);
-static DIM2: [[u32; 256]; 4] = tables(2);
+/// `tables` for the bit-reversed index and the bit-reversed result: entry [b][v] is the ⊕ of
+/// the reversed columns of the set bits of v·2^(8b) in reverse(i), so that
+/// `generate(&reversed_tables(d), reverse(i)) = reverse(generate(&tables(d), i))`. Owen
+/// scrambling reverses its input before hashing (`owen_scramble`): with these tables the
+/// reversal into the hash and the one out of the index shuffle cancel, and are not made.
+const fn reversed_tables(dim: usize) -> [[u32; 256]; 4] {
+    let columns = columns(dim);
+    let mut tables = [[0u32; 256]; 4];
+    let mut byte = 0;
+    while byte < 4 {
+        let mut v = 0;
+        while v < 256 {
+            let mut x = 0;
+            let mut bit = 0;
+            while bit < 8 {
+                if v & (1 << bit) != 0 {
+                    x ^= columns[31 - (byte * 8 + bit)].reverse_bits();
+                }
+                bit += 1;
+            }
+            tables[byte][v] = x;
+            v += 1;
+        }
+        byte += 1;
+    }
+    tables
+}
+
+static DIM1_REVERSED: [[u32; 256]; 4] = reversed_tables(1);
+static DIM2_REVERSED: [[u32; 256]; 4] = reversed_tables(2);
 
 /// Sobol dimension `tables` of `index`: the XOR of the generator columns of its set bits.
 #[inline]
@@ -68,44 +98,111 @@ fn generate(tables: &[[u32; 256]; 4], index: u32) -> u32 {
         ^ tables[3][b3 as usize]
 }
 
-/// The scrambled index and the group's seed (its low half shuffles the index, its high half
-/// scrambles the first coordinate). Indices beyond 2^32 continue with a fresh seed.
+/// The scrambled index, bit-reversed, and the group's seed (its low half shuffles the index,
+/// its high half scrambles the first coordinate). Indices beyond 2^32 continue with a fresh
+/// seed. The index is `owen_scramble(index, seed)`, which is the reversal of the value returned.
 #[inline]
-fn shuffled(index: u64, seed: u64) -> (u32, u64) {
+fn shuffled_reversed(index: u64, seed: u64) -> (u32, u64) {
     let seed = match index >> 32 {
         0 => seed,
         high => hash(seed, high),
     };
-    (owen_scramble(index as u32, seed as u32), seed)
+    (
+        laine_karras((index as u32).reverse_bits(), seed as u32),
+        seed,
+    )
 }
 
-/// Point `index` of a one-dimensional group (`seed` well mixed): scrambled van der Corput.
+/// The Sobol coordinate whose [`reversed_tables`] are given, of the point with shuffled index i
+/// (`reversed` = reverse(i)), Owen-scrambled with `seed`: `owen_scramble(generate(tables, i),
+/// seed)` without its two reversals.
+#[inline]
+fn scrambled(reversed_tables: &[[u32; 256]; 4], reversed: u32, seed: u32) -> u32 {
+    laine_karras(generate(reversed_tables, reversed), seed).reverse_bits()
+}
+
+/// Point `index` of a one-dimensional group (`seed` well mixed): scrambled van der Corput
+/// (the shuffled index i read reversed, then Owen-scrambled).
 #[inline]
 pub fn sample_1d(index: u64, seed: u64) -> u32 {
-    let (i, s) = shuffled(index, seed);
-    owen_scramble(i.reverse_bits(), (s >> 32) as u32)
+    let (reversed, s) = shuffled_reversed(index, seed);
+    owen_scramble(reversed, (s >> 32) as u32)
 }
 
 /// The first two coordinates of point `index` of a group (`seed` well mixed).
 #[inline]
 pub fn sample_2d(index: u64, seed: u64) -> [u32; 2] {
-    let (i, s) = shuffled(index, seed);
+    let (reversed, s) = shuffled_reversed(index, seed);
     [
-        owen_scramble(i.reverse_bits(), (s >> 32) as u32),
-        owen_scramble(generate(&DIM1, i), subseed(s, 0) as u32),
+        owen_scramble(reversed, (s >> 32) as u32),
+        scrambled(&DIM1_REVERSED, reversed, subseed(s, 0) as u32),
+    ]
+}
+
+/// The three coordinates of point `index` of a group: `sample_2d` and `third` from one
+/// shuffle of the index.
+#[inline]
+pub fn sample_3d(index: u64, seed: u64) -> [u32; 3] {
+    let (reversed, s) = shuffled_reversed(index, seed);
+    [
+        owen_scramble(reversed, (s >> 32) as u32),
+        scrambled(&DIM1_REVERSED, reversed, subseed(s, 0) as u32),
+        scrambled(&DIM2_REVERSED, reversed, subseed(s, 1) as u32),
     ]
 }
 
 /// The third coordinate of the same point as `sample_2d(index, seed)`.
 #[inline]
 pub fn third(index: u64, seed: u64) -> u32 {
-    let (i, s) = shuffled(index, seed);
-    owen_scramble(generate(&DIM2, i), subseed(s, 1) as u32)
+    let (reversed, s) = shuffled_reversed(index, seed);
+    scrambled(&DIM2_REVERSED, reversed, subseed(s, 1) as u32)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    static DIM1: [[u32; 256]; 4] = tables(1);
+    static DIM2: [[u32; 256]; 4] = tables(2);
+
+    /// The points by their definition: the index Owen-scrambled, then each coordinate
+    /// (van der Corput, Sobol dimensions 1 and 2 of that index) Owen-scrambled.
+    fn defined(index: u64, seed: u64) -> [u32; 3] {
+        let seed = match index >> 32 {
+            0 => seed,
+            high => hash(seed, high),
+        };
+        let i = owen_scramble(index as u32, seed as u32);
+        [
+            owen_scramble(i.reverse_bits(), (seed >> 32) as u32),
+            owen_scramble(generate(&DIM1, i), subseed(seed, 0) as u32),
+            owen_scramble(generate(&DIM2, i), subseed(seed, 1) as u32),
+        ]
+    }
+
+    #[test]
+    fn the_reversed_arithmetic_gives_the_defined_points() {
+        let mut state = 0x1234_5678_9abc_def0u64;
+        for k in 0..20_000u64 {
+            state = crate::sampling::rng::mix64(state.wrapping_add(k));
+            // Small indices, indices near and beyond 2^32, and any.
+            let index = match k % 3 {
+                0 => k,
+                1 => (1 << 32) - 5_000 + k,
+                _ => state >> (k % 40),
+            };
+            let seed = crate::sampling::rng::mix64(state);
+            let [x, y, z] = defined(index, seed);
+            assert_eq!(sample_2d(index, seed), [x, y], "index {index}, seed {seed}");
+            assert_eq!(third(index, seed), z, "index {index}, seed {seed}");
+            assert_eq!(sample_1d(index, seed), x, "index {index}, seed {seed}");
+            assert_eq!(
+                sample_3d(index, seed),
+                [x, y, z],
+                "index {index}, seed {seed}"
+            );
+        }
+    }
 
     #[test]
     fn dimensions_match_the_published_sequences() {
