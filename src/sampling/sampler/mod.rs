@@ -244,6 +244,14 @@ fn to_f32(x: u32) -> f32 {
     (x >> 8) as f32 * (1.0 / 16_777_216.0)
 }
 
+/// A sequence's 32-bit coordinate `high` of point `index` (group seed `seed`) extended to a
+/// fraction in [0, 1) with 53 bits: 21 low bits hashed from the seed and index.
+#[inline(always)]
+fn with_hashed_bits(high: u32, seed: u64, index: u64) -> f64 {
+    let low = hash(seed ^ 0xa076_1d64_78bd_642f, index) >> 43;
+    ((u64::from(high) << 21) | low) as f64 * TO_UNIT_53
+}
+
 impl CameraSample<'_> {
     /// The point inside the pixel, in [0,1)².
     #[inline]
@@ -261,25 +269,22 @@ impl CameraSample<'_> {
             let seed = self.pixel.seeds[LIGHT_CHOICE as usize];
             return (hash(seed, index) >> 11) as f64 * TO_UNIT_53;
         }
+        if sm.kind == SamplerKind::Sobol && sm.n == 1 {
+            // The third coordinate of the point on the light (see the module doc), built from
+            // the index and seed alone, as `get_2d` does.
+            let index = self.pixel.absolute(sm.k, self.s, k as u64);
+            let seed = self.pixel.seeds[LIGHT_POINT as usize];
+            return with_hashed_bits(sobol::third(index, seed), seed, index);
+        }
         self.sequence_light_choice(k)
     }
 
-    /// `light_choice` for the sequences: their 32 bits and 21 hashed ones.
+    /// `light_choice` for the other sequences: dimension 2's 32 bits and 21 hashed ones.
     #[inline(never)]
     fn sequence_light_choice(&self, k: u32) -> f64 {
         let sm = &self.pixel.sampler;
-        let (p, high) = if sm.kind == SamplerKind::Sobol && sm.n == 1 {
-            let p = self.pixel.point(LIGHT_POINT, sm.k, self.s, k as u64);
-            let third = sobol::third(p.absolute, p.seed);
-            (p, third)
-        } else {
-            let p = self.pixel.point(LIGHT_CHOICE, sm.k, self.s, k as u64);
-            let x = self.pixel.get_1d_sequence(&p);
-            (p, x)
-        };
-        let high = high as u64;
-        let low = hash(p.seed ^ 0xa076_1d64_78bd_642f, p.absolute) >> 43;
-        ((high << 21) | low) as f64 * TO_UNIT_53
+        let p = self.pixel.point(LIGHT_CHOICE, sm.k, self.s, k as u64);
+        with_hashed_bits(self.pixel.get_1d_sequence(&p), p.seed, p.absolute)
     }
 
     /// The 2D number that places point n on light slot k's light.
