@@ -30,12 +30,9 @@ const fn columns(dim: usize) -> [u32; 32] {
     v
 }
 
-/// A dimension's columns as XOR tables, one per byte of the index: table[b][v] = ⊕ of the
-/// columns of the set bits of v·2^(8b). The definition that the tests check
-/// [`reversed_tables`] against.
-#[cfg(test)]
-const fn tables(dim: usize) -> [[u32; 256]; 4] {
-    let columns = columns(dim);
+/// Columns as XOR tables, one per byte of the index: table[b][v] = ⊕ of the columns of the set
+/// bits of v·2^(8b).
+const fn xor_tables(columns: [u32; 32]) -> [[u32; 256]; 4] {
     let mut tables = [[0u32; 256]; 4];
     let mut byte = 0;
     while byte < 4 {
@@ -57,32 +54,26 @@ const fn tables(dim: usize) -> [[u32; 256]; 4] {
     tables
 }
 
-/// `tables` for the bit-reversed index and the bit-reversed result: entry [b][v] is the ⊕ of
-/// the reversed columns of the set bits of v·2^(8b) in reverse(i), so that
+/// A dimension's XOR tables: the definition that the tests check [`reversed_tables`] against.
+#[cfg(test)]
+const fn tables(dim: usize) -> [[u32; 256]; 4] {
+    xor_tables(columns(dim))
+}
+
+/// The XOR tables of the bit-reversed index and the bit-reversed result: bit j of reverse(i) is
+/// bit 31 − j of i, so its column is column 31 − j reversed, and
 /// `generate(&reversed_tables(d), reverse(i)) = reverse(generate(&tables(d), i))`. Owen
 /// scrambling reverses its input before hashing (`owen_scramble`): with these tables the
 /// reversal into the hash and the one out of the index shuffle cancel, and are not made.
 const fn reversed_tables(dim: usize) -> [[u32; 256]; 4] {
     let columns = columns(dim);
-    let mut tables = [[0u32; 256]; 4];
-    let mut byte = 0;
-    while byte < 4 {
-        let mut v = 0;
-        while v < 256 {
-            let mut x = 0;
-            let mut bit = 0;
-            while bit < 8 {
-                if v & (1 << bit) != 0 {
-                    x ^= columns[31 - (byte * 8 + bit)].reverse_bits();
-                }
-                bit += 1;
-            }
-            tables[byte][v] = x;
-            v += 1;
-        }
-        byte += 1;
+    let mut reversed = [0u32; 32];
+    let mut j = 0;
+    while j < 32 {
+        reversed[j] = columns[31 - j].reverse_bits();
+        j += 1;
     }
-    tables
+    xor_tables(reversed)
 }
 
 static DIM1_REVERSED: [[u32; 256]; 4] = reversed_tables(1);
