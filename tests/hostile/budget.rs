@@ -24,8 +24,8 @@ fn scenes_over_the_memory_budget_are_refused_before_their_buffers_are_read() {
     assert_eq!(
         run.stderr.trim_end(),
         format!(
-            "error: {}: scene 0: rendering it needs an estimated 7.72 MB, mostly program \
-             (program 7.34 MB; film 360 kB for 4096 pixels at 88 B; BVH build 8.06 kB for 36 \
+            "error: {}: scene 0: rendering it needs an estimated 9.82 MB, mostly program \
+             (program 9.44 MB; film 360 kB for 4096 pixels at 88 B; BVH build 8.06 kB for 36 \
              triangles at once at 224 B; file 7.08 kB; geometry and BVH 6.12 kB for 36 \
              triangles at 170 B; lights 668 B for 2 emitters at 334 B), \
              more than the 1.00 MB allowed (--max-memory; by default the memory the system has \
