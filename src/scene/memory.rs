@@ -13,9 +13,9 @@
 //! [`lights_before_geometry`]), so the estimate errs high: against the peak RSS
 //! (`/usr/bin/time -f %M`) of `render --width 64 --height 48 --spp 1 --selector bvh` (the
 //! selector that needs most) it gives 19.2 MB for scenes/town.glb (14.0–14.5 measured on an
-//! Intel Xeon guest; 12.6 on an AMD EPYC one) and 821 MB for `gen city --lights 1000000` (434–443
-//! there; 419 with `--selector power`); an untextured scene does not keep the 24 B a triangle of texture
-//! coordinates that the estimate counts.
+//! Intel Xeon guest; 12.6 on an AMD EPYC one) and 821 MB for `gen city --lights 1000000`
+//! (434–443 there; 419 with `--selector power`); an untextured scene does not keep the 24 B a
+//! triangle of texture coordinates that the estimate counts.
 
 use std::collections::HashSet;
 
