@@ -164,8 +164,8 @@ impl PixelSampler {
     }
 
     /// The absolute index of point `slot` of camera sample s in a group with `per_sample`
-    /// points per camera sample (`Point::absolute`), for the independent sampler, which needs
-    /// nothing else of the point.
+    /// points per camera sample (`Point::absolute`), for the independent and Sobol samplers,
+    /// which need nothing else of the point.
     #[inline(always)]
     fn absolute(&self, per_sample: u64, s: u64, slot: u64) -> u64 {
         (self.sampler.first_sample + s) * per_sample + slot
@@ -198,8 +198,8 @@ impl PixelSampler {
         }
     }
 
-    /// Two coordinates (dims `p.dim`, `p.dim + 1`) as fractions of 2^32 (inlined for the
-    /// independent sampler, as `get_1d`).
+    /// Two coordinates (dims `dim`, `dim + 1`) as fractions of 2^32: inlined for the independent
+    /// and Sobol samplers, the other sequences through `get_2d_sequence`.
     #[inline(always)]
     fn get_2d(&self, dim: u64, per_sample: u64, s: u64, slot: u64) -> [u32; 2] {
         let index = self.absolute(per_sample, s, slot);
@@ -210,6 +210,8 @@ impl PixelSampler {
         }
     }
 
+    /// `get_2d` out of line, for any sampler (`get_2d` itself takes the independent and Sobol
+    /// samplers).
     #[inline(never)]
     fn get_2d_sequence(&self, p: &Point) -> [u32; 2] {
         match self.sampler.kind {

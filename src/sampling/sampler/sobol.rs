@@ -63,8 +63,9 @@ const fn tables(dim: usize) -> [[u32; 256]; 4] {
 /// The XOR tables of the bit-reversed index and the bit-reversed result: bit j of reverse(i) is
 /// bit 31 − j of i, so its column is column 31 − j reversed, and
 /// `generate(&reversed_tables(d), reverse(i)) = reverse(generate(&tables(d), i))`. Owen
-/// scrambling reverses its input before hashing (`owen_scramble`): with these tables the
-/// reversal into the hash and the one out of the index shuffle cancel, and are not made.
+/// scrambling reverses its input before hashing (`owen_scramble`), and the index shuffle
+/// reverses its result: with these tables both reversals are folded into the tables' columns
+/// and are not made.
 const fn reversed_tables(dim: usize) -> [[u32; 256]; 4] {
     let columns = columns(dim);
     let mut reversed = [0u32; 32];
@@ -89,9 +90,9 @@ fn generate(tables: &[[u32; 256]; 4], index: u32) -> u32 {
         ^ tables[3][b3 as usize]
 }
 
-/// The scrambled index, bit-reversed, and the group's seed (its low half shuffles the index,
-/// its high half scrambles the first coordinate). Indices beyond 2^32 continue with a fresh
-/// seed. The index is `owen_scramble(index, seed)`, which is the reversal of the value returned.
+/// reverse(i), i = `owen_scramble(index as u32, seed as u32)` the shuffled index, and the
+/// group's seed (its low half shuffles the index, its high half scrambles the first coordinate).
+/// Indices beyond 2^32 continue with a fresh seed.
 #[inline]
 fn shuffled_reversed(index: u64, seed: u64) -> (u32, u64) {
     let seed = match index >> 32 {
@@ -104,8 +105,8 @@ fn shuffled_reversed(index: u64, seed: u64) -> (u32, u64) {
     )
 }
 
-/// The Sobol coordinate whose [`reversed_tables`] are given, of the point with shuffled index i
-/// (`reversed` = reverse(i)), Owen-scrambled with `seed`: `owen_scramble(generate(tables, i),
+/// Sobol dimension d of the point with shuffled index i (`reversed` = reverse(i)), given its
+/// [`reversed_tables`], Owen-scrambled with `seed`: `owen_scramble(generate(&tables(d), i),
 /// seed)` without its two reversals.
 #[inline]
 fn scrambled(reversed_tables: &[[u32; 256]; 4], reversed: u32, seed: u32) -> u32 {

@@ -241,6 +241,78 @@ fn sobol_prefixes_are_nets_in_every_group() {
     }
 }
 
+/// The most points that one box of a 2^a × 2^b × 2^c grid over [0,1)³ holds.
+fn most_in_a_box(points: &[[f64; 3]], cells: [u32; 3]) -> u32 {
+    let mut counts = std::collections::HashMap::new();
+    for p in points {
+        let key: Vec<u64> = (0..3)
+            .map(|d| (p[d] * f64::from(1 << cells[d])) as u64)
+            .collect();
+        *counts.entry(key).or_insert(0u32) += 1;
+    }
+    counts.into_values().max().unwrap_or(0)
+}
+
+#[test]
+fn sobol_draws_the_light_choice_with_its_point_and_the_lobe_with_its_direction() {
+    // With N = 1 the light choice is the third coordinate of the point on the light, and the
+    // BSDF lobe the third of the direction's point (the module doc's layout): over a pixel's
+    // first 2^m camera samples each triple is a 3D net with t = 1 (every box of a 2^a × 2^b ×
+    // 2^c grid with a + b + c = m − 1 holds two points), which numbers taken from two groups,
+    // each shuffled with its own seed, are not.
+    let m = 6;
+    let sampler = Sampler::new(SamplerKind::Sobol, 11, 0, 1 << m, 1, 1);
+    for pixel in [0u64, 5, 4321] {
+        let px = sampler.pixel(pixel);
+        let triples = |read: &dyn Fn(&CameraSample) -> [f64; 3]| -> Vec<[f64; 3]> {
+            (0..1 << m).map(|s| read(&px.camera_sample(s))).collect()
+        };
+        let light = triples(&|c| {
+            let [x, y] = f(c.light_point(0, 0));
+            [x, y, c.light_choice(0)]
+        });
+        let bsdf = triples(&|c| {
+            let (lobe, direction) = c.bsdf_lobe_and_direction(0);
+            let [x, y] = f(direction);
+            [x, y, f64::from(lobe)]
+        });
+        for (name, points) in [("light", light), ("bsdf", bsdf)] {
+            for a in 0..m {
+                for b in 0..m - a {
+                    let cells = [a, b, m - 1 - a - b];
+                    let most = most_in_a_box(&points, cells);
+                    assert_eq!(
+                        most, 2,
+                        "{name} point and choice, pixel {pixel}, grid {cells:?}"
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn the_bsdf_lobe_and_direction_drawn_together_are_the_ones_drawn_apart() {
+    for kind in KINDS {
+        for (k, n) in [(1, 1), (2, 3)] {
+            let sampler = Sampler::new(kind, 5, 0, 4, k, n);
+            for pixel in [0u64, 77] {
+                let px = sampler.pixel(pixel);
+                for s in 0..4 {
+                    let cs = px.camera_sample(s);
+                    for j in 0..k * n {
+                        assert_eq!(
+                            cs.bsdf_lobe_and_direction(j),
+                            (cs.bsdf_lobe(j), cs.bsdf_direction(j)),
+                            "{kind:?}, K × N = {k} × {n}, pixel {pixel}, sample {s}, slot {j}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+}
+
 #[test]
 fn halton_prefixes_are_stratified_in_each_dimension() {
     // 25 = 5² camera samples: the jitter's x (base 2) fills 16 intervals with its first 16, y
