@@ -152,6 +152,7 @@ pub fn third(index: u64, seed: u64) -> u32 {
 
 #[cfg(test)]
 mod tests {
+    use super::super::tests::most_in_a_box;
     use super::*;
 
     static DIM1: [[u32; 256]; 4] = tables(1);
@@ -220,29 +221,24 @@ mod tests {
         // (0, m, 2)-net, the pairs with dimension 2 are (1, m, 2)-nets.
         let m = 7u32;
         for seed in [3u64, 0xfeed_f00d_1234_5678] {
-            let pts: Vec<[u64; 3]> = (0..1u64 << m)
+            // Fractions of 2^32 as f64 (exact), as the camera samples' tests read them.
+            let unit = |x: u32| f64::from(x) / 2f64.powi(32);
+            let pts: Vec<[f64; 3]> = (0..1u64 << m)
                 .map(|i| {
                     let [x, y] = sample_2d(i, seed);
-                    [x as u64, y as u64, third(i, seed) as u64]
+                    [unit(x), unit(y), unit(third(i, seed))]
                 })
                 .collect();
-            let count = |bits: [u32; 3]| {
-                let mut cells = std::collections::HashMap::new();
-                for p in &pts {
-                    let key: Vec<u64> = (0..3).map(|d| p[d] >> (32 - bits[d])).collect();
-                    *cells.entry(key).or_insert(0u32) += 1;
-                }
-                (cells.len(), cells.values().copied().max().unwrap())
-            };
+            let count = |cells: [u32; 3]| most_in_a_box(&pts, cells);
             for a in 0..m {
                 for b in 0..m - a {
                     let c = m - 1 - a - b;
-                    assert_eq!(count([a, b, c]).1, 2, "3D box {a},{b},{c}");
+                    assert_eq!(count([a, b, c]), 2, "3D box {a},{b},{c}");
                 }
                 let b = m - a;
-                assert_eq!(count([a, b, 0]).1, 1, "pair (0,1) {a}x{b}");
-                assert!(count([a, 0, b]).1 <= 2, "pair (0,2) {a}x{b}");
-                assert!(count([0, a, b]).1 <= 2, "pair (1,2) {a}x{b}");
+                assert_eq!(count([a, b, 0]), 1, "pair (0,1) {a}x{b}");
+                assert!(count([a, 0, b]) <= 2, "pair (0,2) {a}x{b}");
+                assert!(count([0, a, b]) <= 2, "pair (1,2) {a}x{b}");
             }
         }
     }

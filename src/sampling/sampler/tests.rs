@@ -241,8 +241,9 @@ fn sobol_prefixes_are_nets_in_every_group() {
     }
 }
 
-/// The most points that one box of a 2^a × 2^b × 2^c grid over [0,1)³ holds.
-fn most_in_a_box(points: &[[f64; 3]], cells: [u32; 3]) -> u32 {
+/// The most points that one box of a 2^a × 2^b × 2^c grid over [0,1)³ holds (`cells` =
+/// [a, b, c]).
+pub(super) fn most_in_a_box(points: &[[f64; 3]], cells: [u32; 3]) -> u32 {
     let mut counts = std::collections::HashMap::new();
     for p in points {
         let key: Vec<u64> = (0..3)

@@ -53,8 +53,8 @@
 //! 5.72 (seed 2000: 7.03 → 5.77), city 7.96 → 8.28 (seeds 1000–4000: mean 8.34 → 7.54).
 //! The table also splits each lane's sum by direction, and at a receiver its estimate of
 //! Σ Φ_i · max(0, n·ω_i) / d_i², raised to at least the table's floor (½ at the root) of the
-//! lane's T · E · R, stands for T · E · R: a facade then tells the lights in front of it from those
-//! behind it. W²-weighted / mean / median χ² town 0.722 / 0.953 / 0.698 → 0.673 / 0.893 /
+//! lane's T · E · R, stands for T · E · R: a facade then tells the lights in front of it from
+//! those behind it. W²-weighted / mean / median χ² town 0.722 / 0.953 / 0.698 → 0.673 / 0.893 /
 //! 0.628, city 0.887 / 1.272 / 1.136 → 0.843 / 1.152 / 1.000; the shadowed variance over the
 //! oracle's town 2.96 → 2.83, city 9.76 → 9.56; one camera sample's lit-surface MSE town 5.725 →
 //! 5.410 (seed 2000: 5.758 → 5.408), city (mean over seeds 1000–8000) 7.58 → 7.59. The floor
@@ -66,8 +66,8 @@
 //! (512 points each, the estimate's floor ¼; `near_field`'s `CHILD_TABLE`). One camera sample's
 //! lit-surface MSE − Var[ref] (`bench --spp 1 --repeat 100 --width 320`): town 6.51 → 5.85
 //! (seeds 1000, 2000; with the root's floor of ½ it was 5.95, and at that floor 128, 256, 1024,
-//! 2048 and 4096 points gave 6.50, 6.29, 6.08, 6.00 and 5.94), the peers' Lambert copy of the 50k city 1.162 → 1.121
-//! (seeds 1000–4000), the 50k city 2.431 → 2.409 (seeds 1000–8000); W²-weighted / mean / median
+//! 2048 and 4096 points gave 6.50, 6.29, 6.08, 6.00 and 5.94), the peers' Lambert copy of the
+//! 50k city 1.162 → 1.121 (seeds 1000–4000), the 50k city 2.431 → 2.409 (seeds 1000–8000); W²-weighted / mean / median
 //! χ² town 0.656 / 0.875 / 0.624 → 0.586 / 0.800 / 0.591, city 0.799 / 1.148 / 0.998 → 0.778 /
 //! 1.092 / 1.007. The cities' lit relMSE rose by 2.2% and 2.3%, the town's fell by 9%: finer
 //! tables, at the root as well, lowered the cities' MSE and raised their relMSE every time, as

@@ -198,8 +198,7 @@ pub(super) struct NearTerms {
 impl NearField {
     /// The table of node `node` of `nodes` (`reach`: their lanes' [`Reach`]), of `kind`, on a
     /// grid of at most `kind.points` points over the box of its lights' `points` widened on each
-    /// side by
-    /// [`MARGIN`] of its size along that axis (of its largest side along an axis without
+    /// side by [`MARGIN`] of its size along that axis (of its largest side along an axis without
     /// extent); `None` for a node that does not exist, no lights, or lights all at one point.
     /// `avx2` (true only where the CPU has AVX2 and FMA) sums with the copy compiled for them,
     /// which gives the same table.
