@@ -190,13 +190,13 @@ pub fn load_gltf_bytes_allowing(
         .default_scene()
         .or_else(|| document.scenes().next())
         .ok_or_else(|| invalid("scenes".into(), "the file has no scene".into()))?;
-    let (declared, emitters) = declared_sizes(&scene);
+    let sizes = declared_sizes(&scene);
+    let declared = sizes.triangles;
     if let Some(budget) = &policy.memory {
         let estimate = MemoryEstimate {
             file_bytes: bytes.len() as u64,
-            triangles: declared,
-            emitters,
             pixels: budget.film_pixels,
+            sizes,
         };
         if estimate.total() > budget.max_bytes {
             return Err(invalid(

@@ -4,7 +4,7 @@
 use super::*;
 
 /// `--max-memory`: a scene whose estimated memory (from the sizes its file declares) exceeds the
-/// budget is refused with exit 3 before its buffers are read, with the estimate, its largest part
+/// budget is refused with exit 3 before its buffers are read, with the estimate, its peak phase
 /// and the budget; an unreadable size is a usage error; a budget the scene fits renders.
 #[test]
 fn scenes_over_the_memory_budget_are_refused_before_their_buffers_are_read() {
@@ -24,12 +24,12 @@ fn scenes_over_the_memory_budget_are_refused_before_their_buffers_are_read() {
     assert_eq!(
         run.stderr.trim_end(),
         format!(
-            "error: {}: scene 0: rendering it needs an estimated 9.82 MB, mostly program \
-             (program 9.44 MB; film 360 kB for 4096 pixels at 88 B; BVH build 8.06 kB for 36 \
-             triangles at once at 224 B; file 7.08 kB; geometry and BVH 6.12 kB for 36 \
-             triangles at 170 B; lights 668 B for 2 emitters at 334 B), \
-             more than the 1.00 MB allowed (--max-memory; by default the memory the system has \
-             available)",
+            "error: {}: scene 0: rendering it needs an estimated 11.1 MB, at the light BVH's \
+             build (program 10.5 MB; scene 2.74 kB for 36 triangles at 76 B; geometry BVH kept \
+             4.32 kB at 120 B; light BVH build 540 B for 2 emitters at 270 B; film 655 kB for \
+             4096 pixels at 160 B; other phases: loading 10.5 MB, the geometry BVH's build 10.5 \
+             MB), more than the 1.00 MB allowed (--max-memory; by default the memory the system \
+             has available)",
             cornell.display()
         )
     );
@@ -43,8 +43,9 @@ fn scenes_over_the_memory_budget_are_refused_before_their_buffers_are_read() {
         &render(&declares, "1G"),
         EXIT_BAD_INPUT,
         &[
-            "declares.gltf: scene 0: rendering it needs an estimated 2.11 GB, mostly geometry \
-             and BVH (geometry and BVH 2.04 GB for 12000000 triangles at 170 B;",
+            "declares.gltf: scene 0: rendering it needs an estimated 2.36 GB, at the light \
+             BVH's build (program 10.5 MB; scene 912 MB for 12000000 triangles at 76 B; \
+             geometry BVH kept 1.44 GB at 120 B;",
             "more than the 1.00 GB allowed (--max-memory",
         ],
         &out,
