@@ -132,12 +132,7 @@ impl NearTables {
 /// The end (one past the last light id) of each lane's range in `node`, whose range ends at
 /// `end`: the next used lane's first id, or `end` for the last (unused lanes: `end`).
 pub(super) fn lane_ends(node: &WideNode, end: usize) -> [usize; LANES] {
-    std::array::from_fn(|k| {
-        node.first[k + 1..]
-            .iter()
-            .find(|&&first| first != EMPTY_LANE)
-            .map_or(end, |&next| next as usize)
-    })
+    std::array::from_fn(|k| node.lane_end(k, end))
 }
 
 /// The table over one node's lanes (see the module header).

@@ -1,8 +1,9 @@
 //! The light tree: [`LightBvh::sample`] walks from the root choosing a child
-//! with probability ∝ importance; [`LightBvh::pmf`] descends towards a light id
+//! with probability ∝ importance, down to a light or to a far lane, inside which it chooses a
+//! light ∝ power (`power_prefix`); [`LightBvh::pmf`] descends towards a light id
 //! multiplying the same per-node probabilities, so pmf(l) equals the
 //! probability that `sample` returns l (a product of child probabilities along
-//! the root-to-leaf path, counting measure over light ids).
+//! the path, times the power share in a far lane; counting measure over light ids).
 
 use glam::Vec3;
 use rayon::prelude::*;
@@ -17,11 +18,13 @@ const DECODED_TOP: usize = 1 + LANES;
 type Choice = Option<(usize, f64)>;
 
 /// One node's lane importances I_k in f64 and their running sums S_k = I_0 + … + I_k, added
-/// in lane order (S_7 = Σ I): the sum and the choice ([`choose_lane`]) share the additions.
+/// in lane order (S_7 = Σ I): the sum and the choice ([`choose_lane`]) share the additions; and
+/// the mask of its far lanes ([`LaneValues`]).
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Importances {
     pub(super) lanes: [f64; LANES],
     sums: [f64; LANES],
+    pub(super) far: u8,
 }
 
 impl Importances {
@@ -52,6 +55,9 @@ pub struct LightBvh {
     /// Whether the CPU has AVX2, FMA and POPCNT (`sample` and `pmf` then run a copy
     /// compiled for them).
     pub(super) avx2: bool,
+    /// The lights' power prefix sums, which choose inside a far lane; `None` (the walk then
+    /// always descends) where the powers span too many decades for them.
+    pub(super) prefix: Option<PowerPrefix>,
 }
 
 /// A light tree half built ([`LightBvh::binary`]): the binary build tree, its
@@ -74,10 +80,12 @@ impl BinaryTree {
     pub fn collapse(&self) -> LightBvh {
         let (nodes, reach) = collapse(&self.nodes, &self.grid, &self.points);
         let avx2 = has_avx2_fma();
+        let phi: Vec<f32> = self.points.iter().map(|p| p.phi).collect();
         LightBvh {
             near: NearTables::build(&nodes, &reach, &self.points, avx2),
             top: nodes.iter().take(DECODED_TOP).map(Decoded::of).collect(),
-            phi: self.points.iter().map(|p| p.phi).collect(),
+            prefix: PowerPrefix::new(&phi),
+            phi,
             nodes,
             avx2,
         }
@@ -231,12 +239,22 @@ impl LightBvh {
             Some(root) => root,
             None => self.importances(0, p, n, lobe)?,
         };
+        // One past the last light id of the node's range.
+        let mut end = self.len();
         loop {
             let total = lanes.total();
             let target = u * total;
             let (lane, below, importance) = choose_lane(&lanes, target);
             pmf *= importance / total;
             let child = node.child(lane);
+            let lane_end = node.lane_end(lane, end);
+            if let Some(range) = self.far_range(node, &lanes, lane, child, lane_end) {
+                let u = ((target - below) / importance).clamp(0.0, LARGEST_BELOW_ONE);
+                let (light, share) = self.prefix.as_ref()?.choose(range.start, range.end, u);
+                pmf *= share;
+                return (pmf > 0.0).then_some((light, pmf));
+            }
+            end = lane_end;
             if child & LIGHT_LANE != 0 {
                 let mut light = (child & !LIGHT_LANE) as usize;
                 if node.pairs & (1 << lane) != 0 {
@@ -287,6 +305,7 @@ impl LightBvh {
         }
         let light = light as u32;
         let mut index = 0;
+        let mut end = self.len();
         let mut pmf = 1.0;
         let Some(mut lanes) = self.importances(0, p, n, lobe) else {
             return 0.0;
@@ -302,6 +321,14 @@ impl LightBvh {
                 return 0.0;
             }
             let child = node.child(lane);
+            let lane_end = node.lane_end(lane, end);
+            if let Some(range) = self.far_range(node, &lanes, lane, child, lane_end) {
+                return match &self.prefix {
+                    Some(prefix) => pmf * prefix.pmf(range.start, range.end, light as usize),
+                    None => 0.0,
+                };
+            }
+            end = lane_end;
             if child & LIGHT_LANE != 0 {
                 let first = child & !LIGHT_LANE;
                 if node.pairs & (1 << lane) == 0 {
@@ -318,6 +345,22 @@ impl LightBvh {
             };
             lanes = below;
         }
+    }
+
+    /// The id range of lane `lane` of `node` (its child `child`, its range ending at `lane_end`)
+    /// where the walk stops there and chooses ∝ power: a far interior lane ([`LaneValues`]) of a tree
+    /// with a power prefix. One test for `sample` and `pmf`.
+    #[inline(always)]
+    fn far_range(
+        &self,
+        node: &WideNode,
+        lanes: &Importances,
+        lane: usize,
+        child: u32,
+        lane_end: usize,
+    ) -> Option<std::ops::Range<usize>> {
+        let far = lanes.far & (1 << lane) != 0 && child & LIGHT_LANE == 0;
+        (far && self.prefix.is_some()).then(|| node.first[lane] as usize..lane_end)
     }
 
     /// The powers Φ_a, Φ_b (each > 0) of a pair lane's lights a = `first` and b = `first + 1`.
@@ -356,6 +399,7 @@ impl LightBvh {
             + self.top.capacity() * std::mem::size_of::<Decoded>()
             + self.phi.capacity() * std::mem::size_of::<f32>()
             + self.near.bytes()
+            + self.prefix.as_ref().map_or(0, PowerPrefix::bytes)
     }
 
     /// The lanes' importances I_k at wide node `index` in f64, and their running sums (lane k is
@@ -397,12 +441,12 @@ impl LightBvh {
         let node = self.nodes.get(index)?;
         // The table's presence is matched here, so that each arm is compiled for it: with the
         // table, the lanes' distance terms are never computed.
-        let importances = match (self.top.get(index), near) {
+        let LaneValues { importance, far } = match (self.top.get(index), near) {
             (Some(decoded), Some(near)) => decoded_importances(decoded, p, n, &lobe, Some(near)),
             (Some(decoded), None) => decoded_importances(decoded, p, n, &lobe, None),
             (None, near) => importances(node, p, n, &lobe, near),
-        }
-        .map(f64::from);
+        };
+        let importances = importance.map(f64::from);
         let mut sums = [0.0; LANES];
         // From −0.0, the additive identity (so the first sum is no addition at all).
         let mut sum = -0.0;
@@ -413,6 +457,7 @@ impl LightBvh {
         (sum > 0.0).then_some(Importances {
             lanes: importances,
             sums,
+            far,
         })
     }
 }

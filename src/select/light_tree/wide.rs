@@ -137,6 +137,16 @@ impl WideNode {
         }
     }
 
+    /// One past the last light id of lane `k`'s range, the node's range ending at `end`: the next
+    /// used lane's first id, or `end` after the last used lane.
+    #[inline(always)]
+    pub(super) fn lane_end(&self, k: usize, end: usize) -> usize {
+        self.first[k + 1..]
+            .iter()
+            .find(|&&first| first != EMPTY_LANE)
+            .map_or(end, |&next| next as usize)
+    }
+
     /// The node of `lanes` (binary nodes with their ranges), interior lanes' nodes numbered from
     /// `children` on; the fields that depend on the lanes' [`Moments`] are left to
     /// [`finish`](Self::finish), which needs the children's.

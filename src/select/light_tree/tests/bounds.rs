@@ -217,8 +217,8 @@ fn kept_decoded_nodes_give_the_same_importances_as_their_codes() {
                 let coded = importances(node, p, receiver, &lobe, terms);
                 let kept = decoded_importances(&decoded, p, receiver, &lobe, terms);
                 assert_eq!(
-                    coded.map(f32::to_bits),
-                    kept.map(f32::to_bits),
+                    (coded.importance.map(f32::to_bits), coded.far),
+                    (kept.importance.map(f32::to_bits), kept.far),
                     "p {p} n {n}"
                 );
                 compared += 1;
@@ -239,7 +239,7 @@ fn lane_importance_matches_the_bound_written_with_angles() {
     let mut compared = 0;
     for (p, n) in receivers(&mut rng, &scene, 300) {
         for node in &bvh.nodes {
-            let lanes = importances(node, p, n, &Lobe::NONE, None);
+            let lanes = importances(node, p, n, &Lobe::NONE, None).importance;
             let decoded = Decoded::of(node);
             for k in (0..LANES).filter(|&k| node.first[k] != EMPTY_LANE) {
                 let phi = decoded.signed_phi[k];

@@ -206,9 +206,9 @@ pub(super) fn receivers(rng: &mut Rand, scene: &Scene, count: usize) -> Vec<(Vec
 /// root lane of a tree holding only that light.
 pub(super) fn importance(b: &LightBounds, p: Vec3, n: Vec3) -> f32 {
     let (bvh, _) = LightBvh::build(&[*b]);
-    bvh.nodes
-        .first()
-        .map_or(0.0, |root| importances(root, p, n, &Lobe::NONE, None)[0])
+    bvh.nodes.first().map_or(0.0, |root| {
+        importances(root, p, n, &Lobe::NONE, None).importance[0]
+    })
 }
 
 /// Interior lanes: (lane, child node index) of wide node `i`.
@@ -244,9 +244,11 @@ pub(super) fn dead_end_mass(bvh: &LightBvh, p: Vec3, n: Vec3, lobe: Lobe) -> f64
     while let Some((i, weight)) = stack.pop() {
         match bvh.importances(i, p, n, lobe) {
             None => mass += weight,
+            // A far lane is not descended: it chooses among all its lights ([`PowerPrefix`]).
             Some(lanes) => stack.extend(
                 interior_lanes(bvh, i)
                     .filter(|&(k, _)| lanes.lanes[k] > 0.0)
+                    .filter(|&(k, _)| bvh.prefix.is_none() || lanes.far & (1 << k) == 0)
                     .map(|(k, child)| (child, weight * lanes.lanes[k] / lanes.total())),
             ),
         }
@@ -308,6 +310,7 @@ pub(super) fn check_frequencies(bvh: &LightBvh, p: Vec3, n: Vec3, m: usize, rng:
 
 mod bounds;
 mod collapse;
+mod far;
 mod lobe;
 mod near_field;
 mod pairs;

@@ -66,7 +66,7 @@ fn contributing_lights_have_positive_pmf() {
             let (bvh, order) = LightBvh::build(&scene.bounds);
             for (p, n) in receivers(&mut rng, &scene, 120) {
                 for node in &bvh.nodes {
-                    let lanes = importances(node, p, n, &Lobe::NONE, None);
+                    let lanes = importances(node, p, n, &Lobe::NONE, None).importance;
                     assert!(lanes.iter().all(|i| i.is_finite() && *i >= 0.0));
                 }
                 for (light, &original) in order.iter().enumerate() {
@@ -149,7 +149,10 @@ fn nodes_behind_the_tangent_plane_get_zero() {
     let (bvh, _) = LightBvh::build(&scene.bounds);
     let (p, n) = (Vec3::new(0.0, 0.0, 0.5), Vec3::Z);
     for node in &bvh.nodes {
-        assert_eq!(importances(node, p, n, &Lobe::NONE, None), [0.0; LANES]);
+        assert_eq!(
+            importances(node, p, n, &Lobe::NONE, None).importance,
+            [0.0; LANES]
+        );
     }
     assert_eq!(bvh.sample(p, n, 0.5), None);
     assert!((0..bvh.len()).all(|l| bvh.pmf(p, n, l) == 0.0));
