@@ -48,11 +48,12 @@ pub const BYTES_PER_TRIANGLE_JOINED: u64 = 80;
 pub const BYTES_PER_TRIANGLE_KEPT: u64 = 120;
 /// The light build's peak per emitter, above the scene: its `Light` (72 B), the light BVH's
 /// binary build tree and primitives, and the wide tree made from them; 216–264 B measured
-/// (RSS of a lights-first build) on cities of 50k to 1M emitters.
+/// (RSS of a lights-first build) on cities of 50k to 1M emitters, before the light BVH's 8 B
+/// power prefix (`select/light_tree/power_prefix.rs`) was added to its wide tree.
 pub const BYTES_PER_LIGHT_BUILT: u64 = 270;
-/// What the light build leaves resident per emitter: the light, the light BVH (40 B on the 1M
-/// city) and the freed build blocks the allocator keeps; 175–196 B measured on the 300k and 1M
-/// cities.
+/// What the light build leaves resident per emitter: the light, the light BVH (47.7 B on the 1M
+/// city, 39.7 before its power prefix) and the freed build blocks the allocator keeps; 175–196 B
+/// measured on the 300k and 1M cities before the prefix.
 pub const BYTES_PER_LIGHT_KEPT: u64 = 200;
 /// The geometry BVH is built in parts of at most this many triangles…
 pub const BVH_PART_MAX_TRIANGLES: u64 = 1 << 17;
