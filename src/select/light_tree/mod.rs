@@ -10,8 +10,9 @@
 //! set sends to a receiver (pbrt-v4's bound, its cosines sharpened), 0 only
 //! where the bound says nothing can arrive; [`LightBvh::sample`] walks down from the
 //! root choosing one of a node's (up to) eight children with probability
-//! proportional to its importance, and [`LightBvh::pmf`] recomputes the
-//! probability of any given light by the same products.
+//! proportional to its importance, until a light or a far child (small in the receiver's view,
+//! its normals within 90°, the receiver not glossy), among whose lights it chooses ∝ Φ; and
+//! [`LightBvh::pmf`] recomputes the probability of any given light by the same products.
 //!
 //! Two trees, one after the other:
 //! - The build tree is binary (top-down, binned cost over all three axes: Φ
@@ -42,7 +43,8 @@
 //! octahedral codes), `node` (the 32-byte build node), `split` (binned split
 //! choice), `cost` (the split cost's orientation term in SIMD lanes), `build`
 //! (parallel subtree construction), `wide` (8-wide nodes and the collapse),
-//! `small_cut` (the collapse of small subtrees), `lanes` (the SIMD importance),
+//! `small_cut` (the collapse of small subtrees), `lanes` (the SIMD importance and far lanes),
+//! `power_prefix` (the choice ∝ Φ inside a far lane),
 //! `near_field` (the distance and direction terms of the root's and its children's lanes from
 //! tables),
 //! `traverse` (LightBvh: build entry, sample, pmf), `tests`.

@@ -248,9 +248,9 @@ impl LightBvh {
             pmf *= importance / total;
             let child = node.child(lane);
             let lane_end = node.lane_end(lane, end);
-            if let Some(range) = self.far_range(node, &lanes, lane, child, lane_end) {
+            if let Some((prefix, range)) = self.far_lane(node, &lanes, lane, child, lane_end) {
                 let u = ((target - below) / importance).clamp(0.0, LARGEST_BELOW_ONE);
-                let (light, share) = self.prefix.as_ref()?.choose(range.start, range.end, u);
+                let (light, share) = prefix.choose(range.start, range.end, u);
                 pmf *= share;
                 return (pmf > 0.0).then_some((light, pmf));
             }
@@ -322,11 +322,8 @@ impl LightBvh {
             }
             let child = node.child(lane);
             let lane_end = node.lane_end(lane, end);
-            if let Some(range) = self.far_range(node, &lanes, lane, child, lane_end) {
-                return match &self.prefix {
-                    Some(prefix) => pmf * prefix.pmf(range.start, range.end, light as usize),
-                    None => 0.0,
-                };
+            if let Some((prefix, range)) = self.far_lane(node, &lanes, lane, child, lane_end) {
+                return pmf * prefix.pmf(range.start, range.end, light as usize);
             }
             end = lane_end;
             if child & LIGHT_LANE != 0 {
@@ -347,20 +344,21 @@ impl LightBvh {
         }
     }
 
-    /// The id range of lane `lane` of `node` (its child `child`, its range ending at `lane_end`)
-    /// where the walk stops there and chooses ∝ power: a far interior lane ([`LaneValues`]) of a tree
-    /// with a power prefix. One test for `sample` and `pmf`.
+    /// The power prefix and the id range of lane `lane` of `node` (its child `child`, its range
+    /// ending at `lane_end`) where the walk stops there and chooses ∝ power: a far interior lane
+    /// ([`LaneValues`]) of a tree with a power prefix. One test for `sample` and `pmf`.
     #[inline(always)]
-    fn far_range(
+    fn far_lane(
         &self,
         node: &WideNode,
         lanes: &Importances,
         lane: usize,
         child: u32,
         lane_end: usize,
-    ) -> Option<std::ops::Range<usize>> {
+    ) -> Option<(&PowerPrefix, std::ops::Range<usize>)> {
+        let prefix = self.prefix.as_ref()?;
         let far = lanes.far & (1 << lane) != 0 && child & LIGHT_LANE == 0;
-        (far && self.prefix.is_some()).then(|| node.first[lane] as usize..lane_end)
+        far.then(|| (prefix, node.first[lane] as usize..lane_end))
     }
 
     /// The powers Φ_a, Φ_b (each > 0) of a pair lane's lights a = `first` and b = `first + 1`.
