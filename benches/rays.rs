@@ -193,47 +193,44 @@ fn scene_camera(scene: &Scene) -> Camera {
 /// Width of the image whose pixels each get `PACKET` camera rays.
 const PIXEL_SET_WIDTH: u32 = 64;
 
-/// `PACKET` jittered camera rays per pixel, a pixel's rays consecutive.
-fn record_pixels(scene: &Scene, seed: u64) -> RaySet {
+/// Calls `each(rng, origin, dir)` for `PACKET` jittered camera rays per pixel of a
+/// `PIXEL_SET_WIDTH`-pixel-wide image, a pixel's rays one after another, from random numbers
+/// seeded with `seed` (two a ray for its jitter, then whatever `each` draws).
+fn each_pixel_ray(scene: &Scene, seed: u64, mut each: impl FnMut(&mut Pcg32, Vec3, Vec3)) {
     let camera = scene_camera(scene);
     let (width, height) = camera.resolution(PIXEL_SET_WIDTH, None);
     let mut rng = Pcg32::seed_from_u64(seed);
-    let mut set = RaySet::new("pixel_closest");
     for y in 0..height {
         for x in 0..width {
             for _ in 0..PACKET {
                 let (jx, jy) = (uniform(&mut rng), uniform(&mut rng));
                 let (origin, dir) = camera.ray(x as f32 + jx, y as f32 + jy, width, height);
-                set.push(origin, dir, f32::INFINITY);
+                each(&mut rng, origin, dir);
             }
         }
     }
+}
+
+/// `PACKET` jittered camera rays per pixel, a pixel's rays consecutive.
+fn record_pixels(scene: &Scene, seed: u64) -> RaySet {
+    let mut set = RaySet::new("pixel_closest");
+    each_pixel_ray(scene, seed, |_, origin, dir| {
+        set.push(origin, dir, f32::INFINITY)
+    });
     set
 }
 
 /// For each of `PACKET` jittered camera rays per pixel of a 64-pixel-wide image, a cosine bounce
 /// ray from its hit (a pixel's rays consecutive; rays that miss give none).
 fn record_pixel_bounces(scene: &Scene, accel: &Accel, seed: u64) -> RaySet {
-    let camera = scene_camera(scene);
-    let (width, height) = camera.resolution(PIXEL_SET_WIDTH, None);
-    let mut rng = Pcg32::seed_from_u64(seed);
     let mut set = RaySet::new("pixel_bounce");
-    for y in 0..height {
-        for x in 0..width {
-            for _ in 0..PACKET {
-                let (jx, jy) = (uniform(&mut rng), uniform(&mut rng));
-                let (u1, u2) = (uniform(&mut rng), uniform(&mut rng));
-                let (origin, dir) = camera.ray(x as f32 + jx, y as f32 + jy, width, height);
-                if let Some((p, n)) = surface_at(scene, accel, origin, dir) {
-                    set.push(
-                        offset_ray_origin(p, n),
-                        cosine_direction(n, u1, u2),
-                        f32::INFINITY,
-                    );
-                }
-            }
+    each_pixel_ray(scene, seed, |rng, origin, dir| {
+        let (u1, u2) = (uniform(rng), uniform(rng));
+        if let Some((p, n)) = surface_at(scene, accel, origin, dir) {
+            let bounce = cosine_direction(n, u1, u2);
+            set.push(offset_ray_origin(p, n), bounce, f32::INFINITY);
         }
-    }
+    });
     set
 }
 
