@@ -60,6 +60,11 @@ fn f(x: [f32; 2]) -> [f64; 2] {
     x.map(|v| v as f64)
 }
 
+/// What `read` gives for each of a pixel's camera samples 0 … count − 1.
+fn first_samples<T>(px: &PixelSampler, count: u32, read: impl Fn(&CameraSample) -> T) -> Vec<T> {
+    (0..count).map(|s| read(&px.camera_sample(s))).collect()
+}
+
 #[test]
 fn every_group_and_every_pair_of_groups_is_uniform() {
     // 256 pixels × 8 camera samples × (K, N) = (2, 2): within each 2D group, and across groups
@@ -229,14 +234,12 @@ fn sobol_prefixes_are_nets_in_every_group() {
             ("bsdf direction", |c| f(c.bsdf_direction(0))),
         ];
         for (name, read) in groups {
-            let points: Vec<[f64; 2]> = (0..1 << m).map(|s| read(&px.camera_sample(s))).collect();
+            let points = first_samples(&px, 1 << m, read);
             for a in 0..=m {
                 assert_one_per_cell(&points, 1 << a, 1 << (m - a), name);
             }
         }
-        let choice: Vec<[f64; 2]> = (0..1 << m)
-            .map(|s| [px.camera_sample(s).light_choice(0), 0.0])
-            .collect();
+        let choice = first_samples(&px, 1 << m, |c| [c.light_choice(0), 0.0]);
         assert_one_per_cell(&choice, 1 << m, 1, "light choice");
     }
 }
@@ -265,14 +268,11 @@ fn sobol_draws_the_light_choice_with_its_point_and_the_lobe_with_its_direction()
     let sampler = Sampler::new(SamplerKind::Sobol, 11, 0, 1 << m, 1, 1);
     for pixel in [0u64, 5, 4321] {
         let px = sampler.pixel(pixel);
-        let triples = |read: &dyn Fn(&CameraSample) -> [f64; 3]| -> Vec<[f64; 3]> {
-            (0..1 << m).map(|s| read(&px.camera_sample(s))).collect()
-        };
-        let light = triples(&|c| {
+        let light = first_samples(&px, 1 << m, |c| {
             let [x, y] = f(c.light_point(0, 0));
             [x, y, c.light_choice(0)]
         });
-        let bsdf = triples(&|c| {
+        let bsdf = first_samples(&px, 1 << m, |c| {
             let (lobe, direction) = c.bsdf_lobe_and_direction(0);
             let [x, y] = f(direction);
             [x, y, f64::from(lobe)]
@@ -320,17 +320,10 @@ fn halton_prefixes_are_stratified_in_each_dimension() {
     // (base 3) 9 intervals with its first 9; the light choice (base 5) fills 25 intervals.
     let sampler = Sampler::new(SamplerKind::Halton, 2, 0, 25, 1, 1);
     let px = sampler.pixel(42);
-    let xs: Vec<[f64; 2]> = (0..16)
-        .map(|s| f(px.camera_sample(s).pixel_jitter()))
-        .collect();
-    assert_one_per_cell(&xs, 16, 1, "halton base 2");
-    let ys: Vec<[f64; 2]> = (0..9)
-        .map(|s| f(px.camera_sample(s).pixel_jitter()))
-        .collect();
-    assert_one_per_cell(&ys, 1, 9, "halton base 3");
-    let choice: Vec<[f64; 2]> = (0..25)
-        .map(|s| [px.camera_sample(s).light_choice(0), 0.0])
-        .collect();
+    let jitter = |c: &CameraSample| f(c.pixel_jitter());
+    assert_one_per_cell(&first_samples(&px, 16, jitter), 16, 1, "halton base 2");
+    assert_one_per_cell(&first_samples(&px, 9, jitter), 1, 9, "halton base 3");
+    let choice = first_samples(&px, 25, |c| [c.light_choice(0), 0.0]);
     assert_one_per_cell(&choice, 25, 1, "halton base 5");
 }
 
