@@ -43,12 +43,32 @@ fn concentric_disk(u: [f32; 2]) -> (f32, f32) {
     if a == 0.0 && b == 0.0 {
         return (0.0, 0.0);
     }
-    let (r, theta) = if a.abs() > b.abs() {
-        (a, 0.25 * PI * (b / a))
+    // θ = φ with φ = π/4 · b/a, or θ = π/2 − φ with φ = π/4 · a/b: either way |φ| ≤ π/4, and
+    // cos θ, sin θ are cos φ, sin φ or the reverse.
+    if a.abs() > b.abs() {
+        let (cos, sin) = cos_sin_within_quarter(0.25 * PI * (b / a));
+        (a * cos, a * sin)
     } else {
-        (b, 0.5 * PI - 0.25 * PI * (a / b))
-    };
-    (r * theta.cos(), r * theta.sin())
+        let (cos, sin) = cos_sin_within_quarter(0.25 * PI * (a / b));
+        (b * sin, b * cos)
+    }
+}
+
+/// (cos φ, sin φ) for |φ| ≤ π/4 from their Taylor polynomials to degrees 8 and 9, whose
+/// truncation errors there are below 2.6e-8 and 1.9e-9 (under half an f32 ulp of cos φ ≥ 0.7),
+/// in Horner form: a dozen multiplications and additions in place of a call to libm's sincosf.
+#[inline]
+fn cos_sin_within_quarter(phi: f32) -> (f32, f32) {
+    let x2 = phi * phi;
+    let cos = 1.0
+        - x2 * (1.0 / 2.0)
+            * (1.0 - x2 * (1.0 / 12.0) * (1.0 - x2 * (1.0 / 30.0) * (1.0 - x2 * (1.0 / 56.0))));
+    let sin = phi
+        * (1.0
+            - x2 * (1.0 / 6.0)
+                * (1.0
+                    - x2 * (1.0 / 20.0) * (1.0 - x2 * (1.0 / 42.0) * (1.0 - x2 * (1.0 / 72.0)))));
+    (cos, sin)
 }
 
 /// An orthonormal frame around a unit vector n (Duff et al. 2017, branchless).
@@ -119,6 +139,49 @@ mod tests {
             (uniform_hemisphere(u).z / UNIFORM_HEMISPHERE_PDF) as f64
         });
         assert!((m - std::f64::consts::PI).abs() < 5.0 * s);
+    }
+
+    /// The polynomial cosine and sine against f64's over [−π/4, π/4], within 1.5e-7 (about one
+    /// f32 ulp of 1; the truncation errors are below 2.6e-8, the rest is f32 rounding), and the
+    /// concentric map against the polar form it stands for, r·(cos θ, sin θ).
+    #[test]
+    fn the_quarter_turn_polynomials_match_f64_sin_and_cos() {
+        let steps = 100_000;
+        for i in 0..=steps {
+            let phi = (-0.25 * PI) + 0.5 * PI * i as f32 / steps as f32;
+            let (cos, sin) = cos_sin_within_quarter(phi);
+            let x = f64::from(phi);
+            assert!(
+                (f64::from(cos) - x.cos()).abs() < 1.5e-7,
+                "cos {phi}: {cos}"
+            );
+            assert!(
+                (f64::from(sin) - x.sin()).abs() < 1.5e-7,
+                "sin {phi}: {sin}"
+            );
+        }
+        let mut rng = PixelRng::new(3, 9);
+        for _ in 0..100_000 {
+            let u = rng.next_2d();
+            let (x, y) = concentric_disk(u);
+            let (a, b) = (2.0 * f64::from(u[0]) - 1.0, 2.0 * f64::from(u[1]) - 1.0);
+            let (r, theta) = if a.abs() > b.abs() {
+                (a, std::f64::consts::FRAC_PI_4 * (b / a))
+            } else {
+                (
+                    b,
+                    std::f64::consts::FRAC_PI_2 - std::f64::consts::FRAC_PI_4 * (a / b),
+                )
+            };
+            assert!(
+                (f64::from(x) - r * theta.cos()).abs() < 3e-7,
+                "{u:?}: x {x}"
+            );
+            assert!(
+                (f64::from(y) - r * theta.sin()).abs() < 3e-7,
+                "{u:?}: y {y}"
+            );
+        }
     }
 
     #[test]
