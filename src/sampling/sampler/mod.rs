@@ -44,6 +44,7 @@ mod sobol;
 mod stratified;
 
 use scramble::{hash, subseed};
+use sobol::Reversed;
 
 /// The dimension layout (see the module doc): the first dimension of each group.
 const PIXEL: u64 = 0;
@@ -194,19 +195,26 @@ impl PixelSampler {
             SamplerKind::Halton => {
                 halton::sample(p.absolute, halton::PRIMES[p.dim as usize], p.seed)
             }
-            SamplerKind::Sobol => sobol::sample_1d(p.absolute, p.seed),
+            SamplerKind::Sobol => sobol::sample_1d(p.absolute, p.seed).bits(),
         }
     }
 
-    /// Two coordinates (dims `dim`, `dim + 1`) as fractions of 2^32: inlined for the independent
-    /// and Sobol samplers, the other sequences through `get_2d_sequence`.
+    /// Two coordinates (dims `dim`, `dim + 1`) in [0, 1) (`to_f32` of their 32-bit fractions):
+    /// inlined for the independent and Sobol samplers, the other sequences through
+    /// `get_2d_sequence`.
     #[inline(always)]
-    fn get_2d(&self, dim: u64, per_sample: u64, s: u64, slot: u64) -> [u32; 2] {
+    fn get_2d(&self, dim: u64, per_sample: u64, s: u64, slot: u64) -> [f32; 2] {
         let index = self.absolute(per_sample, s, slot);
         match self.sampler.kind {
-            SamplerKind::Independent => independent::sample_2d(index, self.seeds[dim as usize]),
-            SamplerKind::Sobol => sobol::sample_2d(index, self.seeds[dim as usize]),
-            _ => self.get_2d_sequence(&self.point(dim, per_sample, s, slot)),
+            SamplerKind::Independent => {
+                independent::sample_2d(index, self.seeds[dim as usize]).map(to_f32)
+            }
+            SamplerKind::Sobol => {
+                sobol::sample_2d(index, self.seeds[dim as usize]).map(Reversed::unit)
+            }
+            _ => self
+                .get_2d_sequence(&self.point(dim, per_sample, s, slot))
+                .map(to_f32),
         }
     }
 
@@ -225,7 +233,7 @@ impl PixelSampler {
                     halton::sample(p.absolute, base(p.dim + 1), self.seeds[p.dim as usize + 1]),
                 ]
             }
-            SamplerKind::Sobol => sobol::sample_2d(p.absolute, p.seed),
+            SamplerKind::Sobol => sobol::sample_2d(p.absolute, p.seed).map(Reversed::bits),
         }
     }
 }
@@ -258,7 +266,7 @@ impl CameraSample<'_> {
     /// The point inside the pixel, in [0,1)².
     #[inline]
     pub fn pixel_jitter(&self) -> [f32; 2] {
-        self.pixel.get_2d(PIXEL, 1, self.s, 0).map(to_f32)
+        self.pixel.get_2d(PIXEL, 1, self.s, 0)
     }
 
     /// The number that chooses light slot k's light, in [0, 1) with 53 bits.
@@ -276,7 +284,7 @@ impl CameraSample<'_> {
             // the index and seed alone, as `get_2d` does.
             let index = self.pixel.absolute(sm.k, self.s, k as u64);
             let seed = self.pixel.seeds[LIGHT_POINT as usize];
-            return with_hashed_bits(sobol::third(index, seed), seed, index);
+            return with_hashed_bits(sobol::third(index, seed).bits(), seed, index);
         }
         self.sequence_light_choice(k)
     }
@@ -295,24 +303,20 @@ impl CameraSample<'_> {
         let sm = &self.pixel.sampler;
         let slot = k as u64 * sm.n + n as u64;
         let per_sample = sm.k * sm.n;
-        self.pixel
-            .get_2d(LIGHT_POINT, per_sample, self.s, slot)
-            .map(to_f32)
+        self.pixel.get_2d(LIGHT_POINT, per_sample, self.s, slot)
     }
 
     /// The number that chooses BSDF slot j's lobe.
     #[inline]
     pub fn bsdf_lobe(&self, j: u32) -> f32 {
         let sm = &self.pixel.sampler;
-        let x = if sm.kind == SamplerKind::Sobol {
+        if sm.kind == SamplerKind::Sobol {
             let p = self
                 .pixel
                 .point(BSDF_DIRECTION, sm.k * sm.n, self.s, j as u64);
-            sobol::third(p.absolute, p.seed)
-        } else {
-            self.pixel.get_1d(BSDF_LOBE, sm.k * sm.n, self.s, j as u64)
-        };
-        to_f32(x)
+            return sobol::third(p.absolute, p.seed).unit();
+        }
+        to_f32(self.pixel.get_1d(BSDF_LOBE, sm.k * sm.n, self.s, j as u64))
     }
 
     /// [`bsdf_lobe`](Self::bsdf_lobe) and [`bsdf_direction`](Self::bsdf_direction) of slot j
@@ -323,8 +327,8 @@ impl CameraSample<'_> {
         if sm.kind == SamplerKind::Sobol {
             let index = self.pixel.absolute(sm.k * sm.n, self.s, j as u64);
             let seed = self.pixel.seeds[BSDF_DIRECTION as usize];
-            let [x, y, lobe] = sobol::sample_3d(index, seed);
-            return (to_f32(lobe), [to_f32(x), to_f32(y)]);
+            let [x, y, lobe] = sobol::sample_3d(index, seed).map(Reversed::unit);
+            return (lobe, [x, y]);
         }
         (self.bsdf_lobe(j), self.bsdf_direction(j))
     }
@@ -335,7 +339,6 @@ impl CameraSample<'_> {
         let sm = &self.pixel.sampler;
         self.pixel
             .get_2d(BSDF_DIRECTION, sm.k * sm.n, self.s, j as u64)
-            .map(to_f32)
     }
 }
 

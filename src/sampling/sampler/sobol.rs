@@ -7,7 +7,7 @@
 //! aligned blocks of 2^m indices onto aligned blocks, keeping every prefix of 2^m points a net)
 //! so groups are decorrelated, then each coordinate is Owen-scrambled, so each point is uniform.
 
-use super::scramble::{hash, laine_karras, owen_scramble, subseed};
+use super::scramble::{hash, laine_karras, subseed};
 
 /// Generator matrix columns v_0 … v_31 (32-bit fractions) of Sobol's dimensions 1 and 2 from
 /// their primitive polynomials: x + 1 gives v_j = v_{j−1} ⊕ (v_{j−1} >> 1) (the Pascal matrix
@@ -105,28 +105,76 @@ fn shuffled_reversed(index: u64, seed: u64) -> (u32, u64) {
     )
 }
 
-/// Sobol dimension d of the point with shuffled index i (`reversed` = reverse(i)), given its
-/// [`reversed_tables`], Owen-scrambled with `seed`: `owen_scramble(generate(&tables(d), i),
-/// seed)` without its two reversals.
-#[inline]
-fn scrambled(reversed_tables: &[[u32; 256]; 4], reversed: u32, seed: u32) -> u32 {
-    laine_karras(generate(reversed_tables, reversed), seed).reverse_bits()
+/// A coordinate kept bit-reversed, as the scrambling leaves it: `bits` gives the coordinate as a
+/// 32-bit binary fraction, `unit` the f32 in [0, 1) that `to_f32` makes of those bits, without
+/// reversing them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Reversed(u32);
+
+/// `UNIT_OF_BYTE[t][v]`: what byte t of a reversed coordinate is worth, bit i of v being bit
+/// 8t + i of the reversed word, worth 2^−(8t+i+1): reverse8(v) · 2^−8(t+1), exact in f32.
+static UNIT_OF_BYTE: [[f32; 256]; 3] = {
+    let mut tables = [[0.0f32; 256]; 3];
+    let mut t = 0;
+    while t < 3 {
+        let scale = 1.0 / (1u32 << (8 * (t + 1))) as f32;
+        let mut v = 0;
+        while v < 256 {
+            tables[t][v] = (v as u8).reverse_bits() as f32 * scale;
+            v += 1;
+        }
+        t += 1;
+    }
+    tables
+};
+
+impl Reversed {
+    /// The coordinate as a 32-bit binary fraction.
+    #[inline]
+    pub fn bits(self) -> u32 {
+        self.0.reverse_bits()
+    }
+
+    /// The coordinate's top 24 bits as an f32 in [0, 1), the same bits as `to_f32(self.bits())`
+    /// (⌊x / 2^8⌋ / 2^24), as the sum of one table entry per byte of the reversed word's low 24
+    /// bits: each entry and each partial sum is a multiple of 2^−24 below 1, so both additions
+    /// are exact.
+    #[inline]
+    pub fn unit(self) -> f32 {
+        let [b0, b1, b2, _] = self.0.to_le_bytes();
+        UNIT_OF_BYTE[0][b0 as usize] + UNIT_OF_BYTE[1][b1 as usize] + UNIT_OF_BYTE[2][b2 as usize]
+    }
 }
 
-/// Point `index` of a one-dimensional group (`seed` well mixed): scrambled van der Corput
-/// (the shuffled index i read reversed, then Owen-scrambled).
+/// Sobol dimension d of the point with shuffled index i (`reversed` = reverse(i)), given its
+/// [`reversed_tables`], Owen-scrambled with `seed`: `owen_scramble(generate(&tables(d), i),
+/// seed)` without its two reversals (the result is kept reversed).
 #[inline]
-pub fn sample_1d(index: u64, seed: u64) -> u32 {
+fn scrambled(reversed_tables: &[[u32; 256]; 4], reversed: u32, seed: u32) -> Reversed {
+    Reversed(laine_karras(generate(reversed_tables, reversed), seed))
+}
+
+/// The first coordinate of the point whose shuffled index i is given reversed (`reversed`):
+/// scrambled van der Corput, i read reversed and Owen-scrambled with `seed`, i.e.
+/// `owen_scramble(reversed, seed)` kept reversed.
+#[inline]
+fn van_der_corput(reversed: u32, seed: u32) -> Reversed {
+    Reversed(laine_karras(reversed.reverse_bits(), seed))
+}
+
+/// Point `index` of a one-dimensional group (`seed` well mixed): scrambled van der Corput.
+#[inline]
+pub fn sample_1d(index: u64, seed: u64) -> Reversed {
     let (reversed, s) = shuffled_reversed(index, seed);
-    owen_scramble(reversed, (s >> 32) as u32)
+    van_der_corput(reversed, (s >> 32) as u32)
 }
 
 /// The first two coordinates of point `index` of a group (`seed` well mixed).
 #[inline]
-pub fn sample_2d(index: u64, seed: u64) -> [u32; 2] {
+pub fn sample_2d(index: u64, seed: u64) -> [Reversed; 2] {
     let (reversed, s) = shuffled_reversed(index, seed);
     [
-        owen_scramble(reversed, (s >> 32) as u32),
+        van_der_corput(reversed, (s >> 32) as u32),
         scrambled(&DIM1_REVERSED, reversed, subseed(s, 0) as u32),
     ]
 }
@@ -134,10 +182,10 @@ pub fn sample_2d(index: u64, seed: u64) -> [u32; 2] {
 /// The three coordinates of point `index` of a group: `sample_2d` and `third` from one
 /// shuffle of the index.
 #[inline]
-pub fn sample_3d(index: u64, seed: u64) -> [u32; 3] {
+pub fn sample_3d(index: u64, seed: u64) -> [Reversed; 3] {
     let (reversed, s) = shuffled_reversed(index, seed);
     [
-        owen_scramble(reversed, (s >> 32) as u32),
+        van_der_corput(reversed, (s >> 32) as u32),
         scrambled(&DIM1_REVERSED, reversed, subseed(s, 0) as u32),
         scrambled(&DIM2_REVERSED, reversed, subseed(s, 1) as u32),
     ]
@@ -145,7 +193,7 @@ pub fn sample_3d(index: u64, seed: u64) -> [u32; 3] {
 
 /// The third coordinate of the same point as `sample_2d(index, seed)`.
 #[inline]
-pub fn third(index: u64, seed: u64) -> u32 {
+pub fn third(index: u64, seed: u64) -> Reversed {
     let (reversed, s) = shuffled_reversed(index, seed);
     scrambled(&DIM2_REVERSED, reversed, subseed(s, 1) as u32)
 }
@@ -154,6 +202,7 @@ pub fn third(index: u64, seed: u64) -> u32 {
 mod tests {
     use super::super::tests::most_in_a_box;
     use super::*;
+    use crate::sampling::sampler::scramble::owen_scramble;
 
     static DIM1: [[u32; 256]; 4] = tables(1);
     static DIM2: [[u32; 256]; 4] = tables(2);
@@ -186,14 +235,37 @@ mod tests {
             };
             let seed = crate::sampling::rng::mix64(state);
             let [x, y, z] = defined(index, seed);
-            assert_eq!(sample_2d(index, seed), [x, y], "index {index}, seed {seed}");
-            assert_eq!(third(index, seed), z, "index {index}, seed {seed}");
-            assert_eq!(sample_1d(index, seed), x, "index {index}, seed {seed}");
+            let bits = |r: Reversed| r.bits();
             assert_eq!(
-                sample_3d(index, seed),
+                sample_2d(index, seed).map(bits),
+                [x, y],
+                "index {index}, seed {seed}"
+            );
+            assert_eq!(third(index, seed).bits(), z, "index {index}, seed {seed}");
+            assert_eq!(
+                sample_1d(index, seed).bits(),
+                x,
+                "index {index}, seed {seed}"
+            );
+            assert_eq!(
+                sample_3d(index, seed).map(bits),
                 [x, y, z],
                 "index {index}, seed {seed}"
             );
+        }
+    }
+
+    /// `unit` of a reversed word gives the bits of `to_f32` of the word reversed, for every value
+    /// of the 24 bits it reads, under a few top bytes (which it must ignore).
+    #[test]
+    fn unit_of_a_reversed_word_is_to_f32_of_its_bits() {
+        use crate::sampling::sampler::to_f32;
+        for top in [0u32, 0x5a, 0xff] {
+            for low in 0..1u32 << 24 {
+                let word = top << 24 | low;
+                let (ours, theirs) = (Reversed(word).unit(), to_f32(word.reverse_bits()));
+                assert_eq!(ours.to_bits(), theirs.to_bits(), "word {word:#x}");
+            }
         }
     }
 
@@ -225,8 +297,8 @@ mod tests {
             let unit = |x: u32| f64::from(x) / 2f64.powi(32);
             let pts: Vec<[f64; 3]> = (0..1u64 << m)
                 .map(|i| {
-                    let [x, y] = sample_2d(i, seed);
-                    [unit(x), unit(y), unit(third(i, seed))]
+                    let [x, y] = sample_2d(i, seed).map(Reversed::bits);
+                    [unit(x), unit(y), unit(third(i, seed).bits())]
                 })
                 .collect();
             let count = |cells: [u32; 3]| most_in_a_box(&pts, cells);
