@@ -28,6 +28,8 @@ mod build;
 mod collapse;
 mod cut;
 #[cfg(target_arch = "x86_64")]
+mod masked_avx2;
+#[cfg(target_arch = "x86_64")]
 mod node_avx2;
 mod offset;
 #[cfg(target_arch = "x86_64")]
@@ -207,6 +209,7 @@ impl Accel {
         let mut walk_ray = *ray;
         walk_avx2::walk(
             &self.walk_nodes,
+            0,
             &mut walk_ray,
             |ray, planes, _| node_avx2::test_children(planes, &node_ray, ray.tmax),
             |ray| ray.tmax,

@@ -53,7 +53,6 @@ use super::planes::ChildPlanes;
 pub(super) struct NodeRay {
     origin: [f32; 3],
     inv_direction: [f32; 3],
-    negative: [bool; 3],
     near: [usize; 3],
     far: [usize; 3],
 }
@@ -73,7 +72,6 @@ impl NodeRay {
         NodeRay {
             origin: o.into(),
             inv_direction: inv.into(),
-            negative,
             near,
             far,
         }
@@ -186,29 +184,6 @@ unsafe fn greatest(v: __m256) -> __m256 {
     _mm256_max_ps(v, _mm256_permute_ps::<0b10_11_00_01>(v))
 }
 
-/// A node's child planes as f32 lanes (the rays of a packet share one load).
-#[cfg(target_arch = "x86_64")]
-pub(super) type ChildBoxes = [__m256; 6];
-
-/// The node's eight child boxes, loaded once.
-///
-/// # Safety
-/// The CPU must support AVX2 and FMA.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-#[inline]
-pub(super) unsafe fn child_boxes(planes: &ChildPlanes) -> ChildBoxes {
-    let p = &planes.0;
-    [
-        _mm256_load_ps(p[0].as_ptr()),
-        _mm256_load_ps(p[1].as_ptr()),
-        _mm256_load_ps(p[2].as_ptr()),
-        _mm256_load_ps(p[3].as_ptr()),
-        _mm256_load_ps(p[4].as_ptr()),
-        _mm256_load_ps(p[5].as_ptr()),
-    ]
-}
-
 /// All-ones in the lanes of the children `ray` hits (the slab test of the module header)
 /// with the ray's current `tmax`, the near and far planes along each axis as f32 lanes from
 /// `planes(axis)`; and each child's entry distance max(t_near, 1e-4) (meaningful in hit
@@ -249,27 +224,6 @@ unsafe fn overlap(
     );
     let exit = _mm256_min_ps(_mm256_min_ps(far_x, tmax), _mm256_min_ps(far_y, far_z));
     (_mm256_cmp_ps::<_CMP_LE_OS>(entry, exit), entry)
-}
-
-/// The near and far planes of `axis` for `ray` from a node's `boxes` (loaded once for the
-/// rays of a packet).
-///
-/// # Safety
-/// The CPU must support AVX2 and FMA.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-#[inline]
-pub(super) unsafe fn box_planes(
-    boxes: &ChildBoxes,
-    ray: &NodeRay,
-    axis: usize,
-) -> (__m256, __m256) {
-    let (lo, hi) = (boxes[2 * axis], boxes[2 * axis + 1]);
-    if ray.negative[axis] {
-        (hi, lo)
-    } else {
-        (lo, hi)
-    }
 }
 
 /// The children of a node with child `planes` that the rays of `packet` may hit (module

@@ -12,8 +12,9 @@
 //! its triangles only when a ray hits its box. The interval spans the whole region between the
 //! rays (a pixel's footprint) and a leaf costs all eight rays' triangle tests: with leaves
 //! taken by the interval test alone, the 1M-emitter city at 32 × 24 pixels tested 8.4 times
-//! the triangles and saved nothing. Other packets are tested ray by ray at every node: the
-//! children any ray hits, at the least entry among those rays.
+//! the triangles and saved nothing. Packets whose rays run different ways along some axis (the
+//! bounce rays of a pixel's samples) take the walk of `masked_avx2`, which keeps the rays of
+//! each subtree apart.
 //!
 //! Each ray keeps its own closest distance and the triangle tests are the single-ray ones
 //! (`TestTriangle::intersect`) with the same arithmetic in the same order; every child a ray
@@ -69,12 +70,18 @@ impl Accel {
     #[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,lzcnt")]
     pub(super) unsafe fn closest_hits_avx2(&self, rays: &mut [Ray], hits: &mut [Option<Hit>]) {
         debug_assert!(rays.len() <= PACKET && hits.len() == rays.len());
-        let reach = rays.iter().fold(0.0f32, |m, r| m.max(r.tmax));
-        let mut packet = Packet {
-            lanes: Lanes::new(rays),
-            rays,
-            reach,
+        let lanes = Lanes::new(rays);
+        let Some(bounds) = node_avx2::NodePacket::new(
+            [lanes.ox, lanes.oy, lanes.oz],
+            [lanes.dx, lanes.dy, lanes.dz],
+            [lanes.ix, lanes.iy, lanes.iz],
+        ) else {
+            // Rays that run different ways along some axis: each subtree is walked by the rays
+            // that enter it.
+            return self.closest_hits_masked_avx2(rays, hits);
         };
+        let reach = rays.iter().fold(0.0f32, |m, r| m.max(r.tmax));
+        let mut packet = Packet { lanes, rays, reach };
         let leaf = |packet: &mut Packet, base, mask: u32| {
             let mut closer = 0;
             let mut triangles = mask;
@@ -96,43 +103,12 @@ impl Accel {
         };
         let nodes = &self.walk_nodes;
         let reach = |packet: &Packet| packet.reach;
-        let lanes = &packet.lanes;
-        let bounds = node_avx2::NodePacket::new(
-            [lanes.ox, lanes.oy, lanes.oz],
-            [lanes.dx, lanes.dy, lanes.dz],
-            [lanes.ix, lanes.iy, lanes.iz],
-        );
-        if let Some(bounds) = bounds {
-            // One interval test for all the rays; leaf children ray by ray.
-            let children = |packet: &Packet, planes: &ChildPlanes, imask| {
-                let (tmax, reach) = (packet.lanes.t, packet.reach);
-                node_avx2::test_packet(planes, &bounds, tmax, reach, imask)
-            };
-            walk_avx2::walk(nodes, &mut packet, children, reach, leaf);
-        } else {
-            // Ray by ray: the children any ray hits, at the least entry among those rays; the
-            // boxes are loaded once for all the rays. Lanes past the last ray repeat it. A
-            // plain loop rather than `array::from_fn`, whose closure the compiler may leave out
-            // of line (8 calls per packet).
-            let rays = &packet.rays;
-            let mut node_rays = [node_avx2::NodeRay::new(&rays[rays.len() - 1]); PACKET];
-            for (node_ray, ray) in node_rays.iter_mut().zip(rays.iter()) {
-                *node_ray = node_avx2::NodeRay::new(ray);
-            }
-            let children = |packet: &Packet, planes: &ChildPlanes, _| {
-                let boxes = node_avx2::child_boxes(planes);
-                let mut hit = _mm256_setzero_ps();
-                let mut entry = _mm256_set1_ps(f32::INFINITY);
-                for (ray, node_ray) in packet.rays.iter().zip(&node_rays) {
-                    let planes = |axis| node_avx2::box_planes(&boxes, node_ray, axis);
-                    let (lanes, t) = node_avx2::hit_and_entry(node_ray, ray.tmax, planes);
-                    hit = _mm256_or_ps(hit, lanes);
-                    entry = _mm256_min_ps(_mm256_blendv_ps(entry, t, lanes), entry);
-                }
-                (hit, entry)
-            };
-            walk_avx2::walk(nodes, &mut packet, children, reach, leaf);
-        }
+        // One interval test for all the rays; leaf children ray by ray.
+        let children = |packet: &Packet, planes: &ChildPlanes, imask| {
+            let (tmax, reach) = (packet.lanes.t, packet.reach);
+            node_avx2::test_packet(planes, &bounds, tmax, reach, imask)
+        };
+        walk_avx2::walk(nodes, 0, &mut packet, children, reach, leaf);
         let Packet { lanes, rays, .. } = packet;
         let mut slot = [0i32; PACKET];
         let (mut b1, mut b2) = ([0.0f32; PACKET], [0.0f32; PACKET]);

@@ -66,6 +66,7 @@ pub(super) unsafe fn moller_trumbore(
 }
 
 /// What the block test needs of one ray, in every lane.
+#[derive(Clone, Copy)]
 pub(super) struct RayLanes {
     origin: Lanes3,
     direction: Lanes3,

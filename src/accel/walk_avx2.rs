@@ -30,8 +30,8 @@ use super::planes::{ChildPlanes, WalkNode};
 /// newest entries rather than writing past the end, as obvhs's stack does.
 const STACK: usize = 512;
 
-/// Walks the BVH of `nodes` (obvhs's, with their child boxes as f32 planes) for a query
-/// `state` (one ray, or the rays of a packet): `children(state, planes, imask)` gives the hit
+/// Walks the subtree of node `start` (0: the whole BVH) of `nodes` (obvhs's, with their child
+/// boxes as f32 planes) for a query `state` (one ray, or the rays of a packet): `children(state, planes, imask)` gives the hit
 /// lanes and entry distances of a node's children from its planes and its mask of inner
 /// children (for a packet: at least the lanes any ray hits, at no more than the least entry
 /// among the rays that hit them),
@@ -46,6 +46,7 @@ const STACK: usize = 512;
 #[inline]
 pub(super) unsafe fn walk<S>(
     nodes: &[WalkNode],
+    start: u32,
     state: &mut S,
     children: impl Fn(&S, &ChildPlanes, u32) -> (__m256, __m256),
     reach: impl Fn(&S) -> f32,
@@ -56,7 +57,7 @@ pub(super) unsafe fn walk<S>(
     }
     let mut stack: [MaybeUninit<(u32, f32)>; STACK] = [MaybeUninit::uninit(); STACK];
     let mut len = 0usize;
-    let mut index = 0u32;
+    let mut index = start;
     loop {
         let node = &nodes[index as usize];
         let imask = node.imask as u32;
