@@ -475,3 +475,77 @@ fn external_spec_errors_are_usage_errors() {
         assert_eq!(o.status.code(), Some(2), "{bad}: {}", stderr(&o));
     }
 }
+
+#[test]
+fn far_sine_is_a_usage_error_without_the_light_tree() {
+    let dir = tempfile::tempdir().unwrap();
+    let cornell = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.glb");
+    let out = dir.path().join("o.exr");
+    let render = |extra: &[&str]| {
+        let mut args = vec![
+            "render",
+            cornell.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        manylights(&args)
+    };
+    let o = render(&["--selector", "power", "--far-sin", "0.5"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("--far-sin applies to --selector bvh"));
+    let o = render(&["--far-sin", "1.5"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("from 0 to 1"));
+    assert!(!out.exists());
+}
+
+#[test]
+fn bench_sweeps_the_far_sine_for_the_light_tree_only() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = cornell_copy(dir.path());
+    let json = dir.path().join("b.json");
+    let o = manylights(&[
+        "bench",
+        scene.to_str().unwrap(),
+        "--width",
+        "8",
+        "--spp",
+        "2",
+        "--repeat",
+        "1",
+        "--reference-spp",
+        "16",
+        "--selectors",
+        "power,bvh",
+        "--strategies",
+        "mis",
+        "--far-sin",
+        "0,0.3,0.6",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let rows: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    let got: Vec<(String, f64)> = rows
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| {
+            (
+                r["selector"].as_str().unwrap().to_owned(),
+                r["far_sin"].as_f64().unwrap(),
+            )
+        })
+        .collect();
+    let want = [("power", 0.3), ("bvh", 0.0), ("bvh", 0.3), ("bvh", 0.6)];
+    assert_eq!(got.len(), want.len(), "{got:?}");
+    for ((s, f), (ws, wf)) in got.iter().zip(want) {
+        assert!(s == ws && (f - wf).abs() < 1e-6, "{got:?}");
+    }
+    // The default keeps the label it had; the others name their sine.
+    let table = String::from_utf8_lossy(&o.stdout);
+    for label in ["bvh:mis:1x1:far0 ", "bvh:mis:1x1 ", "bvh:mis:1x1:far0.6 "] {
+        assert!(table.contains(label), "{label:?} missing from {table}");
+    }
+}

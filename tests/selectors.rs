@@ -11,7 +11,9 @@ use manylights::sampling::rng::PixelRng;
 use manylights::scene::{
     load_gltf, CameraChoice, EnvironmentImage, PunctualKind, PunctualLight, Scene,
 };
-use manylights::select::{oracle, LightSelector, Lobe, SelectorKind, ShadingContext};
+use manylights::select::{
+    oracle, LightSelector, Lobe, SelectorKind, ShadingContext, DEFAULT_FAR_SIN,
+};
 
 fn town_with_punctual_lights() -> Scene {
     let dir = tempfile::tempdir().unwrap();
@@ -74,10 +76,15 @@ fn random_contexts(scene: &Scene, count: usize, seed: u64) -> Vec<ShadingContext
 /// For random shading points and M = 10,000 stratified u: every sample's pmf equals `pmf`, each
 /// light's hits match its pmf, and the pmfs sum to 1 (for bvh: to 1 − the share of dead ends).
 fn frequencies_match_the_pmf(kind: SelectorKind) {
+    frequencies_match_the_pmf_with(kind, DEFAULT_FAR_SIN);
+}
+
+/// [`frequencies_match_the_pmf`] with the light tree's far lanes below `far_sin`.
+fn frequencies_match_the_pmf_with(kind: SelectorKind, far_sin: f32) {
     let scene = town_with_punctual_lights();
     const M: usize = 10_000;
     let mut lights = Lights::from_scene(&scene);
-    let selector = LightSelector::build(kind, &mut lights).unwrap();
+    let selector = LightSelector::build_with(kind, &mut lights, far_sin).unwrap();
     for ctx in random_contexts(&scene, 4, kind as u64) {
         let mut rng = PixelRng::new(77, kind as u64);
         // Σ over the hits of light l of 1/(p_l · M) estimates 1 for every light with p_l > 0.
@@ -136,6 +143,15 @@ fn power_frequencies_match_the_pmf() {
 #[test]
 fn bvh_frequencies_match_the_pmf() {
     frequencies_match_the_pmf(SelectorKind::Bvh);
+}
+
+/// The far-lane sine changes where the walk stops, never the agreement of `sample` with `pmf`:
+/// none (0) and most lanes (0.9).
+#[test]
+fn bvh_frequencies_match_the_pmf_at_other_far_sines() {
+    for far_sin in [0.0, 0.9] {
+        frequencies_match_the_pmf_with(SelectorKind::Bvh, far_sin);
+    }
 }
 
 #[test]

@@ -25,6 +25,7 @@ use crate::measure::plot::{plot_relmse_vs_seconds, write_error_image};
 use crate::measure::progressive::Clock;
 use crate::measure::report::{csv, markdown, table, write_json, write_text};
 use crate::measure::EstimatorChoice;
+use crate::select::SelectorKind;
 
 #[derive(Args, Debug, Clone)]
 pub struct BenchArgs {
@@ -43,7 +44,7 @@ pub struct BenchArgs {
     /// Samples per pixel of a reference bench renders itself.
     #[arg(long, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
     pub reference_spp: u32,
-    /// The configuration ratios compare against, selector:strategy:KxN[:mM][:sampler][:spp]
+    /// The configuration ratios compare against, selector:strategy:KxN[:mM][:farS][:sampler][:spp]
     /// (default: the first; without :spp, at each row's own spp; without :sampler,
     /// independent).
     // The brackets are the help text's option syntax, not intra-doc links.
@@ -210,16 +211,25 @@ pub fn estimators(args: &BenchArgs) -> Result<Vec<EstimatorChoice>, UsageError> 
                 } else {
                     vec![1]
                 };
+                // The far-lane sine is swept for the light tree only.
+                let far = if selector == SelectorKind::Bvh {
+                    or(&o.far_sin, d.far_sin)
+                } else {
+                    vec![d.far_sin]
+                };
                 for m in ms {
-                    for sampler in or(&o.sampler, d.sampler) {
-                        out.push(EstimatorChoice {
-                            selector,
-                            strategy,
-                            k,
-                            n,
-                            sampler,
-                            m,
-                        });
+                    for &far_sin in &far {
+                        for sampler in or(&o.sampler, d.sampler) {
+                            out.push(EstimatorChoice {
+                                selector,
+                                strategy,
+                                k,
+                                n,
+                                sampler,
+                                m,
+                                far_sin,
+                            });
+                        }
                     }
                 }
             }
@@ -228,6 +238,11 @@ pub fn estimators(args: &BenchArgs) -> Result<Vec<EstimatorChoice>, UsageError> 
     if !o.m.is_empty() && !out.iter().any(|e| e.strategy.resamples()) {
         return Err(UsageError(
             "--m applies to --strategy ris and ris-mis only".into(),
+        ));
+    }
+    if !o.far_sin.is_empty() && !out.iter().any(|e| e.selector == SelectorKind::Bvh) {
+        return Err(UsageError(
+            "--far-sin applies to --selector bvh only".into(),
         ));
     }
     Ok(out)

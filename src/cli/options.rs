@@ -14,7 +14,7 @@ use crate::measure::EstimatorChoice;
 use crate::sampling::sampler::SamplerKind;
 use crate::scene::memory::{available_memory, parse_size, MemoryBudget};
 use crate::scene::{CameraChoice, EnvironmentError, EnvironmentImage, LoadPolicy, PunctualUnits};
-use crate::select::SelectorKind;
+use crate::select::{SelectorKind, DEFAULT_FAR_SIN};
 
 #[derive(Args, Debug, Clone)]
 pub struct RenderOptionsArgs {
@@ -44,6 +44,12 @@ pub struct RenderOptionsArgs {
     /// converge: independent] (bench: a list, also as --samplers).
     #[arg(long, value_enum, value_delimiter = ',', alias = "samplers")]
     pub sampler: Vec<SamplerKind>,
+    /// `--selector bvh`: the light tree's walk stops at a lane whose bounding sphere it sees under
+    /// a half-angle whose sine is below this (and whose lights face within 90° of one way), and
+    /// chooses among its lights in proportion to power; 0 always descends to one light
+    /// [default: 0.3] (bench: a list, swept for bvh only).
+    #[arg(long, value_delimiter = ',', value_parser = unit_interval)]
+    pub far_sin: Vec<f32>,
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// Image width in pixels.
@@ -109,6 +115,7 @@ pub const RENDER_DEFAULTS: Defaults = Defaults {
         n: 1,
         sampler: SamplerKind::Sobol,
         m: 1,
+        far_sin: DEFAULT_FAR_SIN,
     },
 };
 
@@ -125,6 +132,7 @@ pub const TEXTBOOK_DEFAULTS: Defaults = Defaults {
         n: 1,
         sampler: SamplerKind::Independent,
         m: 1,
+        far_sin: DEFAULT_FAR_SIN,
     },
 };
 
@@ -139,12 +147,18 @@ impl RenderOptionsArgs {
             n: single("--n", &self.n, d.n)?,
             sampler: single("--sampler", &self.sampler, d.sampler)?,
             m: single("--m", &self.m, d.m)?,
+            far_sin: single("--far-sin", &self.far_sin, d.far_sin)?,
         };
         if choice.m != 1 && !choice.strategy.resamples() {
             return Err(UsageError(format!(
                 "--m {} applies to --strategy ris and ris-mis only",
                 choice.m
             )));
+        }
+        if !self.far_sin.is_empty() && choice.selector != SelectorKind::Bvh {
+            return Err(UsageError(
+                "--far-sin applies to --selector bvh only".into(),
+            ));
         }
         Ok(choice)
     }
@@ -254,6 +268,16 @@ pub fn check_resolution(width: u32, height: u32) -> Result<(), UsageError> {
         )));
     }
     Ok(())
+}
+
+/// A number in [0, 1] (clap value parser for `--far-sin`).
+fn unit_interval(s: &str) -> Result<f32, String> {
+    let x: f32 = s.parse().map_err(|e| format!("{e}"))?;
+    if (0.0..=1.0).contains(&x) {
+        Ok(x)
+    } else {
+        Err(format!("must be a number from 0 to 1, got {s}"))
+    }
 }
 
 fn positive_finite(s: &str) -> Result<f32, String> {

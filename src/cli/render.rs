@@ -148,7 +148,7 @@ fn render_scene(
     let (width, height) = camera.resolution(o.width, o.height);
     check_resolution(width, height)?;
 
-    let prepared = PreparedScene::new(scene, choice.selector);
+    let prepared = PreparedScene::new_with(scene, choice.selector, choice.far_sin);
     seconds.bvh_build = prepared.bvh_seconds;
     seconds.light_build = prepared.light_seconds;
     seconds.selector_build = prepared.selector_seconds;

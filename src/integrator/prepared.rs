@@ -9,7 +9,7 @@ use crate::lights::Lights;
 use crate::material::Brdf;
 use crate::scene::memory::lights_before_geometry;
 use crate::scene::Scene;
-use crate::select::{LightSelector, SelectorKind};
+use crate::select::{LightSelector, SelectorKind, DEFAULT_FAR_SIN};
 
 pub struct PreparedScene {
     pub scene: Scene,
@@ -34,6 +34,12 @@ impl PreparedScene {
     /// `lights_before_geometry` chooses so that the larger build's temporaries are not alive
     /// beside the other's finished structure.
     pub fn new(scene: Scene, kind: SelectorKind) -> PreparedScene {
+        Self::new_with(scene, kind, DEFAULT_FAR_SIN)
+    }
+
+    /// [`new`](Self::new) with the light tree's far lanes below `far_sin` (`bvh`; see
+    /// [`DEFAULT_FAR_SIN`]).
+    pub fn new_with(scene: Scene, kind: SelectorKind, far_sin: f32) -> PreparedScene {
         let build_accel = |scene: &Scene| {
             let t = Instant::now();
             (Accel::build(scene), t.elapsed().as_secs_f64())
@@ -42,7 +48,7 @@ impl PreparedScene {
             let t = Instant::now();
             let mut lights = Lights::from_scene(scene);
             let made = t.elapsed().as_secs_f64();
-            let selector = LightSelector::build(kind, &mut lights);
+            let selector = LightSelector::build_with(kind, &mut lights, far_sin);
             let total = t.elapsed().as_secs_f64();
             (lights, selector, (total, total - made))
         };

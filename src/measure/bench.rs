@@ -30,7 +30,7 @@ use crate::image::RgbImage;
 use crate::integrator::{render, PreparedScene, RenderOptions, Strategy};
 use crate::sampling::rng::derive_seed;
 use crate::sampling::sampler::SamplerKind;
-use crate::select::SelectorKind;
+use crate::select::{SelectorKind, DEFAULT_FAR_SIN};
 
 /// What to run.
 #[derive(Clone, Debug)]
@@ -57,6 +57,8 @@ pub struct BenchRow {
     pub sampler: SamplerKind,
     /// RIS candidates per K×N slot (1 for strategies that do not resample).
     pub m: u32,
+    /// `bvh`'s far-lane sine (`EstimatorChoice::far_sin`).
+    pub far_sin: f32,
     /// Samples per pixel (with a time budget: the median reached over repeats).
     pub spp: u32,
     /// Median render seconds over repeats.
@@ -115,7 +117,7 @@ pub struct BenchRow {
 }
 
 impl BenchRow {
-    /// `selector:strategy:KxN[:mM][:sampler]:spp`, the form `--baseline` accepts.
+    /// `selector:strategy:KxN[:mM][:farS][:sampler]:spp`, the form `--baseline` accepts.
     pub fn label(&self) -> String {
         format!("{}:{}", estimator_label(&self.estimator()), self.spp)
     }
@@ -128,12 +130,14 @@ impl BenchRow {
             n: self.n,
             sampler: self.sampler,
             m: self.m,
+            far_sin: self.far_sin,
         }
     }
 }
 
-/// `selector:strategy:KxN[:mM][:sampler]` with the CLI's spellings; M is named for the
-/// resampling strategies, the sampler unless it is the default, independent.
+/// `selector:strategy:KxN[:mM][:farS][:sampler]` with the CLI's spellings; M is named for the
+/// resampling strategies, the far-lane sine S for `bvh` when it is not the default, the sampler
+/// unless it is the default, independent.
 pub fn estimator_label(e: &EstimatorChoice) -> String {
     use clap::ValueEnum;
     let name =
@@ -147,8 +151,13 @@ pub fn estimator_label(e: &EstimatorChoice) -> String {
     } else {
         String::new()
     };
+    let far = if e.selector == SelectorKind::Bvh && e.far_sin != DEFAULT_FAR_SIN {
+        format!(":far{}", e.far_sin)
+    } else {
+        String::new()
+    };
     format!(
-        "{}:{}:{}x{}{m}{sampler}",
+        "{}:{}:{}x{}{m}{far}{sampler}",
         name(e.selector.to_possible_value()),
         name(e.strategy.to_possible_value()),
         e.k,
@@ -191,19 +200,21 @@ pub fn run(
     mut on_row: impl FnMut(&BenchRow),
 ) -> Vec<BenchRow> {
     let mut rows = Vec::new();
-    let mut selectors: Vec<SelectorKind> = Vec::new();
+    // One prepared scene per selector (and far-lane sine), in the order first asked for.
+    let mut selectors: Vec<(SelectorKind, f32)> = Vec::new();
     for e in &plan.estimators {
-        if !selectors.contains(&e.selector) {
-            selectors.push(e.selector);
+        if !selectors.contains(&(e.selector, e.far_sin)) {
+            selectors.push((e.selector, e.far_sin));
         }
     }
     let spps: Vec<Option<u32>> = match plan.time_budget {
         Some(_) => vec![None],
         None => plan.spp.iter().map(|&s| Some(s)).collect(),
     };
-    for kind in selectors {
-        let prepared = PreparedScene::new(setup.scene.clone(), kind);
-        for e in plan.estimators.iter().filter(|e| e.selector == kind) {
+    for (kind, far_sin) in selectors {
+        let prepared = PreparedScene::new_with(setup.scene.clone(), kind, far_sin);
+        let of_these = |e: &&EstimatorChoice| e.selector == kind && e.far_sin == far_sin;
+        for e in plan.estimators.iter().filter(of_these) {
             let estimator = prepared
                 .estimator(e.strategy, e.k, e.n)
                 .with_candidates(e.m);
@@ -285,6 +296,7 @@ fn aggregate(e: EstimatorChoice, plan: &BenchPlan, runs: Vec<Run>, errors: Error
         n: e.n,
         sampler: e.sampler,
         m: e.m,
+        far_sin: e.far_sin,
         spp,
         seconds,
         seconds_min: secs.iter().cloned().fold(f64::INFINITY, f64::min),
@@ -332,7 +344,7 @@ pub fn median(xs: &mut [f64]) -> f64 {
     }
 }
 
-/// Fills each row's ratios against the baseline: `selector:strategy:KxN[:mM][:sampler][:spp]`. Without
+/// Fills each row's ratios against the baseline: `selector:strategy:KxN[:mM][:farS][:sampler][:spp]`. Without
 /// `:spp` (and by default, with the first row's configuration), each row is compared with the
 /// baseline configuration at its own spp (or the first baseline row when that spp is missing).
 /// Errors when no row matches.
@@ -411,7 +423,7 @@ pub fn flag_heavy_tails(rows: &mut [BenchRow]) {
 /// What one estimator configuration needs to reach a target relMSE.
 #[derive(Clone, Debug, Serialize)]
 pub struct TargetAnswer {
-    /// `selector:strategy:KxN[:mM][:sampler]`.
+    /// `selector:strategy:KxN[:mM][:farS][:sampler]`.
     pub config: String,
     /// None when its measured relMSE does not fall with spp.
     pub cost: Option<TargetCost>,

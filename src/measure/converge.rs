@@ -99,7 +99,7 @@ pub fn run(
         lit,
     };
     let e = opts.estimator;
-    let prepared = PreparedScene::new(setup.scene.clone(), e.selector);
+    let prepared = PreparedScene::new_with(setup.scene.clone(), e.selector, e.far_sin);
     let estimator = prepared
         .estimator(e.strategy, e.k, e.n)
         .with_candidates(e.m);

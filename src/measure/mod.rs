@@ -27,10 +27,10 @@ use crate::scene::{
     load_gltf_bytes_allowing, read_scene_file, scene_folder, Camera, CameraChoice,
     EnvironmentImage, LoadPolicy, PunctualUnits, Scene,
 };
-use crate::select::SelectorKind;
+use crate::select::{SelectorKind, DEFAULT_FAR_SIN};
 
 /// One estimator configuration: the selector, the strategy, K × N and the sample sequence.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct EstimatorChoice {
     pub selector: SelectorKind,
     pub strategy: Strategy,
@@ -43,10 +43,19 @@ pub struct EstimatorChoice {
     /// files written before RIS existed.
     #[serde(default = "one_candidate")]
     pub m: u32,
+    /// `bvh`: the sine of the half-angle under which a lane's bounding sphere makes the walk
+    /// stop there and choose ∝ power ([`DEFAULT_FAR_SIN`]; 0: it always descends). Absent from
+    /// files written before it could be chosen, which used the default.
+    #[serde(default = "default_far_sin")]
+    pub far_sin: f32,
 }
 
 fn one_candidate() -> u32 {
     1
+}
+
+fn default_far_sin() -> f32 {
+    DEFAULT_FAR_SIN
 }
 
 /// A scene loaded for measurement, with the content hash that identifies its references.

@@ -19,7 +19,7 @@ use crate::image::{
 };
 use crate::integrator::{PreparedScene, RenderOptions, Strategy};
 use crate::sampling::sampler::SamplerKind;
-use crate::select::SelectorKind;
+use crate::select::{SelectorKind, DEFAULT_FAR_SIN};
 
 /// The estimator references use by default: MIS of solid-angle light sampling and BSDF
 /// sampling over the light BVH, the lowest-variance combination the renderer has.
@@ -30,6 +30,7 @@ pub const DEFAULT_ESTIMATOR: EstimatorChoice = EstimatorChoice {
     n: 1,
     sampler: SamplerKind::Independent,
     m: 1,
+    far_sin: DEFAULT_FAR_SIN,
 };
 
 /// Samples per pixel of each progressive pass of a reference.
@@ -143,7 +144,7 @@ pub fn render_reference_passes(
     after_pass: impl FnMut(&Progressive) -> Flow,
 ) -> Progressive {
     let e = options.estimator;
-    let prepared = PreparedScene::new(setup.scene.clone(), e.selector);
+    let prepared = PreparedScene::new_with(setup.scene.clone(), e.selector, e.far_sin);
     let estimator = prepared
         .estimator(e.strategy, e.k, e.n)
         .with_candidates(e.m);

@@ -15,7 +15,7 @@ use glam::Vec3;
 use crate::lights::Lights;
 use crate::sampling::alias::AliasTable;
 
-pub use light_tree::Lobe;
+pub use light_tree::{Lobe, DEFAULT_FAR_SIN};
 pub use tree_selector::BvhSelector;
 
 /// Which selector to build.
@@ -51,6 +51,16 @@ pub enum LightSelector {
 impl LightSelector {
     /// None when there are no lights. `bvh` reorders `lights` (its leaves want contiguous ids).
     pub fn build(kind: SelectorKind, lights: &mut Lights) -> Option<LightSelector> {
+        Self::build_with(kind, lights, DEFAULT_FAR_SIN)
+    }
+
+    /// [`build`](Self::build), the light tree's far lanes below `far_sin` (`bvh` only; see
+    /// [`DEFAULT_FAR_SIN`]; 0: the walk always descends).
+    pub fn build_with(
+        kind: SelectorKind,
+        lights: &mut Lights,
+        far_sin: f32,
+    ) -> Option<LightSelector> {
         if lights.is_empty() {
             return None;
         }
@@ -62,7 +72,9 @@ impl LightSelector {
             SelectorKind::Power => AliasTable::new(&lights.powers())
                 .map(LightSelector::Power)
                 .unwrap_or(uniform),
-            SelectorKind::Bvh => LightSelector::Bvh(BvhSelector::build(lights)),
+            SelectorKind::Bvh => {
+                LightSelector::Bvh(BvhSelector::build(lights).with_far_sin(far_sin))
+            }
             SelectorKind::Oracle => LightSelector::Oracle,
         })
     }

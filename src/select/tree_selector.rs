@@ -115,6 +115,12 @@ impl BvhSelector {
         }
     }
 
+    /// The selector with its tree's far lanes below `far_sin` ([`LightBvh::with_far_sin`]).
+    pub fn with_far_sin(mut self, far_sin: f32) -> BvhSelector {
+        self.tree = self.tree.with_far_sin(far_sin);
+        self
+    }
+
     #[inline]
     pub fn sample(&self, ctx: &ShadingContext, u: f64) -> Option<(usize, f64)> {
         if self.infinite.is_empty() {

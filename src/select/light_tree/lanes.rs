@@ -98,9 +98,9 @@ const INSIDE_FLOOR: f32 = 0.25;
 const SPREAD_WEIGHT: f32 = 1.5;
 /// The least d² in units of σ².
 const SPREAD_FLOOR: f32 = 0.5;
-/// A lane is far ([`LaneValues::far`]) where its whole sphere subtends less than this sine of a
-/// half-angle (θb < 17.5°)…
-const FAR_SIN: f32 = 0.3;
+/// A lane is far ([`LaneValues::far`]) where its whole sphere subtends less than a sine of a
+/// half-angle, the tree's `far_sin` (by default this one: θb < 17.5°; 0: no lane is far)…
+pub const DEFAULT_FAR_SIN: f32 = 0.3;
 /// …and its normal cone is narrower than this cosine of θo (θo < 90°).
 const FAR_COS: f32 = 0.0;
 
@@ -228,7 +228,7 @@ fn weighted(cos_sharp: f32, cos_whole: f32, outside_sharp: bool, outside: bool) 
 /// A node's lanes at a receiver: each lane's importance, and the mask of its far lanes (bit k
 /// for lane k), which the walk does not descend: their lights are chosen in proportion to power
 /// (`power_prefix`). A lane is far where its bounding sphere subtends a half-angle θb with
-/// sin θb < `FAR_SIN` and its normal cone has cos θo > `FAR_COS`, at a receiver without a
+/// sin θb < `far_sin` ([`DEFAULT_FAR_SIN`]) and its normal cone has cos θo > `FAR_COS`, at a receiver without a
 /// specular lobe (a glossy one mirrors single lights of a cluster). One camera sample's lit-surface
 /// MSE (`bench --spp 1 --repeat 100 --width 320 --seed 1000`, bvh + mis) against a walk that
 /// always descends, sin θb below 0.2, 0.3 and 0.5 (cos θo above 0.5, 0, 0): peers' Lambert copy
@@ -257,10 +257,11 @@ pub(super) fn importances(
     n: Vec3,
     lobe: &Lobe,
     near: Option<NearTerms>,
+    far_sin: f32,
 ) -> LaneValues {
     // Each lane decoded where its importance is computed: the decoded bounds never go through
     // memory.
-    lane_importances(|k| LaneBounds::decode(node, k), p, n, lobe, near)
+    lane_importances(|k| LaneBounds::decode(node, k), p, n, lobe, near, far_sin)
 }
 
 /// [`importances`] of a node already decoded (the same bits).
@@ -271,8 +272,9 @@ pub(super) fn decoded_importances(
     n: Vec3,
     lobe: &Lobe,
     near: Option<NearTerms>,
+    far_sin: f32,
 ) -> LaneValues {
-    lane_importances(|k| lanes.lane(k), p, n, lobe, near)
+    lane_importances(|k| lanes.lane(k), p, n, lobe, near, far_sin)
 }
 
 /// The eight lanes' importances from their bounds `bounds(k)`.
@@ -283,6 +285,7 @@ fn lane_importances(
     n: Vec3,
     lobe: &Lobe,
     near: Option<NearTerms>,
+    far_sin: f32,
 ) -> LaneValues {
     let receiver = n != Vec3::ZERO;
     // A flag for the node and a plain array, not an Option per lane: the lanes then stay one
@@ -301,10 +304,10 @@ fn lane_importances(
     // The lobe factor is 1 exactly without a gain: a receiver without a lobe skips it. Each case
     // is compiled on its own, so that no choice between them is left in the lanes.
     match (lobe.gain > 0.0, receiver) {
-        (true, true) => lanes::<true, true>(&bounds, p, n, lobe, use_near, near),
-        (true, false) => lanes::<true, false>(&bounds, p, n, lobe, use_near, near),
-        (false, true) => lanes::<false, true>(&bounds, p, n, lobe, use_near, near),
-        (false, false) => lanes::<false, false>(&bounds, p, n, lobe, use_near, near),
+        (true, true) => lanes::<true, true>(&bounds, p, n, lobe, use_near, near, far_sin),
+        (true, false) => lanes::<true, false>(&bounds, p, n, lobe, use_near, near, far_sin),
+        (false, true) => lanes::<false, true>(&bounds, p, n, lobe, use_near, near, far_sin),
+        (false, false) => lanes::<false, false>(&bounds, p, n, lobe, use_near, near, far_sin),
     }
 }
 
@@ -318,12 +321,14 @@ fn lanes<const GLOSSY: bool, const RECEIVER: bool>(
     lobe: &Lobe,
     use_near: bool,
     (plain, directed, directed_floor): (&[f32; LANES], &[f32; LANES], f32),
+    far_sin: f32,
 ) -> LaneValues {
     let mut importance = [0.0; LANES];
     let mut far = [false; LANES];
     for k in 0..LANES {
         let near = (plain[k], directed[k], directed_floor);
-        (importance[k], far[k]) = lane::<GLOSSY, RECEIVER>(&bounds(k), p, n, lobe, use_near, near);
+        (importance[k], far[k]) =
+            lane::<GLOSSY, RECEIVER>(&bounds(k), p, n, lobe, use_near, near, far_sin);
     }
     let far = far
         .iter()
@@ -453,6 +458,7 @@ fn lane<const GLOSSY: bool, const RECEIVER: bool>(
     lobe: &Lobe,
     use_near: bool,
     (near, directed, directed_floor): (f32, f32, f32),
+    far_sin: f32,
 ) -> (f32, bool) {
     let to_p = [
         p.x - node.centre[0],
@@ -538,6 +544,6 @@ fn lane<const GLOSSY: bool, const RECEIVER: bool>(
     };
     let value = if value < f32::MAX { value } else { f32::MAX };
     let value = max(value, f32::MIN_POSITIVE);
-    let far = !GLOSSY & (sin_b < FAR_SIN) & (cos_o > FAR_COS);
+    let far = !GLOSSY & (sin_b < far_sin) & (cos_o > FAR_COS);
     (if reject { 0.0 } else { value }, far)
 }

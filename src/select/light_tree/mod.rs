@@ -77,7 +77,7 @@ use wide::*;
 
 pub use bounds::LightBounds;
 use bounds::*;
-pub use lanes::Lobe;
+pub use lanes::{Lobe, DEFAULT_FAR_SIN};
 pub use traverse::{BinaryTree, LightBvh, RootImportances};
 
 /// Absolute tolerance on the cosines compared in the importance, larger than the

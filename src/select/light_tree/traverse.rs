@@ -56,8 +56,11 @@ pub struct LightBvh {
     /// compiled for them).
     pub(super) avx2: bool,
     /// The lights' power prefix sums, which choose inside a far lane; `None` (the walk then
-    /// always descends) where the powers span too many decades for them.
+    /// always descends) where the powers span too many decades for them or no lane is far.
     pub(super) prefix: Option<PowerPrefix>,
+    /// The sine of the half-angle below which a lane's bounding sphere makes it far
+    /// ([`DEFAULT_FAR_SIN`]; 0: none is, and the walk always descends).
+    pub(super) far_sin: f32,
 }
 
 /// A light tree half built ([`LightBvh::binary`]): the binary build tree, its
@@ -88,11 +91,22 @@ impl BinaryTree {
             phi,
             nodes,
             avx2,
+            far_sin: DEFAULT_FAR_SIN,
         }
     }
 }
 
 impl LightBvh {
+    /// The tree with far lanes below `far_sin` ([`DEFAULT_FAR_SIN`]; 0 or less: none, and the
+    /// power prefix is dropped). Sampling and `pmf` both read it, so the pmf stays exact.
+    pub fn with_far_sin(mut self, far_sin: f32) -> LightBvh {
+        self.far_sin = far_sin.max(0.0);
+        if self.far_sin == 0.0 {
+            self.prefix = None;
+        }
+        self
+    }
+
     /// Builds over `bounds` (index i = light i). Lights with phi == 0 (or
     /// negative, or any non-finite field) are left out, as are indices from
     /// 2³¹ on. Returns the tree and `order`, the included light indices in leaf
@@ -440,9 +454,11 @@ impl LightBvh {
         // The table's presence is matched here, so that each arm is compiled for it: with the
         // table, the lanes' distance terms are never computed.
         let LaneValues { importance, far } = match (self.top.get(index), near) {
-            (Some(decoded), Some(near)) => decoded_importances(decoded, p, n, &lobe, Some(near)),
-            (Some(decoded), None) => decoded_importances(decoded, p, n, &lobe, None),
-            (None, near) => importances(node, p, n, &lobe, near),
+            (Some(decoded), Some(near)) => {
+                decoded_importances(decoded, p, n, &lobe, Some(near), self.far_sin)
+            }
+            (Some(decoded), None) => decoded_importances(decoded, p, n, &lobe, None, self.far_sin),
+            (None, near) => importances(node, p, n, &lobe, near, self.far_sin),
         };
         let importances = importance.map(f64::from);
         let mut sums = [0.0; LANES];

@@ -214,8 +214,9 @@ fn kept_decoded_nodes_give_the_same_importances_as_their_codes() {
                 (Lobe::NONE, n, near),
                 (glossy, n, near),
             ] {
-                let coded = importances(node, p, receiver, &lobe, terms);
-                let kept = decoded_importances(&decoded, p, receiver, &lobe, terms);
+                let coded = importances(node, p, receiver, &lobe, terms, DEFAULT_FAR_SIN);
+                let kept =
+                    decoded_importances(&decoded, p, receiver, &lobe, terms, DEFAULT_FAR_SIN);
                 assert_eq!(
                     (coded.importance.map(f32::to_bits), coded.far),
                     (kept.importance.map(f32::to_bits), kept.far),
@@ -239,7 +240,7 @@ fn lane_importance_matches_the_bound_written_with_angles() {
     let mut compared = 0;
     for (p, n) in receivers(&mut rng, &scene, 300) {
         for node in &bvh.nodes {
-            let lanes = importances(node, p, n, &Lobe::NONE, None).importance;
+            let lanes = importances(node, p, n, &Lobe::NONE, None, DEFAULT_FAR_SIN).importance;
             let decoded = Decoded::of(node);
             for k in (0..LANES).filter(|&k| node.first[k] != EMPTY_LANE) {
                 let phi = decoded.signed_phi[k];

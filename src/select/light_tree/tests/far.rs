@@ -16,10 +16,9 @@ fn facing_down(centre: Vec3, size: f32, phi: f32) -> LightBounds {
     }
 }
 
-#[test]
-fn a_far_cluster_is_chosen_in_proportion_to_power() {
-    let mut rng = Rand::new(31);
-    // 60 lights over the receiver at the origin, and a cluster of 40 a hundred metres away.
+/// 60 lights over a receiver at the origin, and a cluster of 40 a hundred metres away (their
+/// indices in `bounds`).
+fn near_and_far_lights(rng: &mut Rand) -> (Vec<LightBounds>, std::ops::Range<usize>) {
     let mut bounds: Vec<LightBounds> = (0..60)
         .map(|_| {
             let c = Vec3::new(
@@ -35,6 +34,13 @@ fn a_far_cluster_is_chosen_in_proportion_to_power() {
         let c = Vec3::new(100.0 + rng.range(-1.0, 1.0), 10.0, rng.range(-1.0, 1.0));
         facing_down(c, 0.1, 10f32.powf(rng.range(-1.0, 1.0)))
     }));
+    (bounds, cluster)
+}
+
+#[test]
+fn a_far_cluster_is_chosen_in_proportion_to_power() {
+    let mut rng = Rand::new(31);
+    let (bounds, cluster) = near_and_far_lights(&mut rng);
     let (bvh, order) = LightBvh::build(&bounds);
     let descending = LightBvh {
         prefix: None,
@@ -70,4 +76,36 @@ fn a_far_cluster_is_chosen_in_proportion_to_power() {
         "{checked} checked, {differs} differ"
     );
     check_frequencies(&bvh, p, n, 200_000, &mut rng);
+}
+
+/// The far-lane sine is a knob of the walk: at 0 no lane is far and every light's pmf is, bit for
+/// bit, that of a tree without the power prefix (which always descends); a wider sine makes a
+/// superset of the root's lanes far, and sampling still matches its pmf.
+#[test]
+fn the_far_sine_sets_which_lanes_end_the_walk() {
+    let mut rng = Rand::new(32);
+    let (bounds, _) = near_and_far_lights(&mut rng);
+    let (bvh, _) = LightBvh::build(&bounds);
+    let (p, n) = (Vec3::ZERO, Vec3::Y);
+    let descending = LightBvh {
+        prefix: None,
+        ..bvh.clone()
+    };
+    let never = bvh.clone().with_far_sin(0.0);
+    assert!(never.prefix.is_none());
+    assert_eq!(never.importances(0, p, n, Lobe::NONE).unwrap().far, 0);
+    for l in 0..bvh.len() {
+        assert_eq!(
+            never.pmf(p, n, l).to_bits(),
+            descending.pmf(p, n, l).to_bits(),
+            "light {l}"
+        );
+    }
+    let default_far = bvh.importances(0, p, n, Lobe::NONE).unwrap().far;
+    let wide = bvh.clone().with_far_sin(0.95);
+    let wide_far = wide.importances(0, p, n, Lobe::NONE).unwrap().far;
+    assert_ne!(default_far, 0, "the cluster's lane is far at the default");
+    assert_eq!(wide_far & default_far, default_far);
+    assert_ne!(wide_far, default_far, "a wider sine makes more lanes far");
+    check_frequencies(&wide, p, n, 200_000, &mut rng);
 }

@@ -207,7 +207,7 @@ pub(super) fn receivers(rng: &mut Rand, scene: &Scene, count: usize) -> Vec<(Vec
 pub(super) fn importance(b: &LightBounds, p: Vec3, n: Vec3) -> f32 {
     let (bvh, _) = LightBvh::build(&[*b]);
     bvh.nodes.first().map_or(0.0, |root| {
-        importances(root, p, n, &Lobe::NONE, None).importance[0]
+        importances(root, p, n, &Lobe::NONE, None, DEFAULT_FAR_SIN).importance[0]
     })
 }
 

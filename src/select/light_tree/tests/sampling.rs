@@ -66,7 +66,8 @@ fn contributing_lights_have_positive_pmf() {
             let (bvh, order) = LightBvh::build(&scene.bounds);
             for (p, n) in receivers(&mut rng, &scene, 120) {
                 for node in &bvh.nodes {
-                    let lanes = importances(node, p, n, &Lobe::NONE, None).importance;
+                    let lanes =
+                        importances(node, p, n, &Lobe::NONE, None, DEFAULT_FAR_SIN).importance;
                     assert!(lanes.iter().all(|i| i.is_finite() && *i >= 0.0));
                 }
                 for (light, &original) in order.iter().enumerate() {
@@ -150,7 +151,7 @@ fn nodes_behind_the_tangent_plane_get_zero() {
     let (p, n) = (Vec3::new(0.0, 0.0, 0.5), Vec3::Z);
     for node in &bvh.nodes {
         assert_eq!(
-            importances(node, p, n, &Lobe::NONE, None).importance,
+            importances(node, p, n, &Lobe::NONE, None, DEFAULT_FAR_SIN).importance,
             [0.0; LANES]
         );
     }
