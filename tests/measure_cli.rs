@@ -504,7 +504,7 @@ fn far_sine_is_a_usage_error_without_the_light_tree() {
 fn bench_sweeps_the_far_sine_for_the_light_tree_only() {
     let dir = tempfile::tempdir().unwrap();
     let scene = cornell_copy(dir.path());
-    let json = dir.path().join("b.json");
+    let report = dir.path().join("b.json");
     let o = manylights(&[
         "bench",
         scene.to_str().unwrap(),
@@ -523,10 +523,10 @@ fn bench_sweeps_the_far_sine_for_the_light_tree_only() {
         "--far-sin",
         "0,0.3,0.6",
         "--json",
-        json.to_str().unwrap(),
+        report.to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let rows: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    let rows = json(&report);
     let got: Vec<(String, f64)> = rows
         .as_array()
         .unwrap()

@@ -93,16 +93,8 @@ impl Accel {
                     rays_of =
                         _mm256_or_si256(rays_of, _mm256_and_si256(_mm256_castps_si256(hit), bit));
                     entry = _mm256_min_ps(entry, _mm256_blendv_ps(entry, t, hit));
-                    // The leaf children it hits: their triangles, as the single-ray walk finds
-                    // them from the leaves' meta.
-                    let mut leaves = _mm256_movemask_ps(hit) as u32 & !imask;
-                    let mut triangles = 0u32;
-                    while leaves != 0 {
-                        let slot = leaves.trailing_zeros() as usize;
-                        leaves &= leaves - 1;
-                        let meta = node.child_meta[slot] as u32;
-                        triangles |= ((1 << (meta >> 5).count_ones()) - 1) << (meta & 0b1_1111);
-                    }
+                    // The triangles of the leaf children it hits.
+                    let triangles = node.leaf_triangles(_mm256_movemask_ps(hit) as u32);
                     if triangles != 0 {
                         let hit = nearest_triangle(
                             &self.triangles,

@@ -94,6 +94,23 @@ impl WalkNode {
             imask: node.imask,
         }
     }
+
+    /// The triangles of the leaf children among `hits` (bit k: slot k), as bits i of slots
+    /// `primitive_base + i`: an empty slot has meta 0, no triangles; a leaf's meta holds its first
+    /// triangle's offset from the base in its low five bits (below 24: obvhs gives a node's
+    /// leaves at most 24 triangles, in slot order) and its count in unary in the high three.
+    #[inline(always)]
+    pub(super) fn leaf_triangles(&self, hits: u32) -> u32 {
+        let mut leaves = hits & !u32::from(self.imask);
+        let mut triangles = 0u32;
+        while leaves != 0 {
+            let slot = leaves.trailing_zeros() as usize;
+            leaves &= leaves - 1;
+            let meta = u32::from(self.child_meta[slot]);
+            triangles |= ((1 << (meta >> 5).count_ones()) - 1) << (meta & 0b1_1111);
+        }
+        triangles
+    }
 }
 
 /// The walk's node for every node of `nodes`, in the same order, made in parallel (on one thread

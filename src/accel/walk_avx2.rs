@@ -64,19 +64,9 @@ pub(super) unsafe fn walk<S>(
         let (hit, entry) = children(state, &node.planes, imask);
         let hits = _mm256_movemask_ps(hit) as u32;
         let mut inner = hits & imask;
-        // Leaf children (an empty slot has meta 0: no triangles): the low five bits of a leaf's
-        // meta are its first triangle's offset from the node's base (below 24: obvhs gives a
-        // node's leaves at most 24 triangles, in slot order), the high three its count in unary.
-        // The triangles of the leaves hit are tested together (a hit lane's entry is at most
-        // the tmax the node test was given, so no leaf is out of reach yet).
-        let mut leaves = hits & !imask;
-        let mut triangles = 0u32;
-        while leaves != 0 {
-            let slot = leaves.trailing_zeros() as usize;
-            leaves &= leaves - 1;
-            let meta = node.child_meta[slot] as u32;
-            triangles |= ((1 << (meta >> 5).count_ones()) - 1) << (meta & 0b1_1111);
-        }
+        // The triangles of the leaves hit are tested together (a hit lane's entry is at most the
+        // tmax the node test was given, so no leaf is out of reach yet).
+        let triangles = node.leaf_triangles(hits);
         if triangles != 0 && leaf(state, node.primitive_base, triangles) {
             return;
         }
