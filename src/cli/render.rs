@@ -68,6 +68,8 @@ pub struct RenderSummary {
     /// RIS candidates per K×N slot (1 for strategies that do not resample).
     pub m: u32,
     pub selector: SelectorKind,
+    /// `bvh`'s far-lane sine (`--far-sin`; None for the other selectors).
+    pub far_sin: Option<f32>,
     pub strategy: Strategy,
     pub sampler: SamplerKind,
     pub seed: u64,
@@ -204,6 +206,7 @@ fn render_scene(
         n: choice.n,
         m: choice.m,
         selector: choice.selector,
+        far_sin: (choice.selector == SelectorKind::Bvh).then_some(choice.far_sin),
         strategy: choice.strategy,
         sampler: choice.sampler,
         seed: o.seed,
@@ -246,8 +249,11 @@ fn print_summary(s: &RenderSummary) {
         s.lights,
         s.total_power
     );
+    let far = s
+        .far_sin
+        .map_or(String::new(), |f| format!(" (far lanes below sin {f})"));
     println!(
-        "image     {}x{}, {} spp, K x N = {} x {}, M = {}, selector {:?}, strategy {:?}, sampler {:?}, seed {}, {} threads",
+        "image     {}x{}, {} spp, K x N = {} x {}, M = {}, selector {:?}{far}, strategy {:?}, sampler {:?}, seed {}, {} threads",
         s.width, s.height, s.spp, s.k, s.n, s.m, s.selector, s.strategy, s.sampler, s.seed, s.threads
     );
     if let Some(e) = &s.environment {
