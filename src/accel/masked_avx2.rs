@@ -32,7 +32,7 @@ impl Accel {
     /// The CPU must support the features of `has_simd_walk`.
     #[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,lzcnt")]
     pub(super) unsafe fn closest_hits_masked_avx2(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
-        debug_assert!(rays.len() <= PACKET && hits.len() == rays.len());
+        debug_assert!((2..=PACKET).contains(&rays.len()) && hits.len() == rays.len());
         let nodes = &self.walk_nodes;
         if nodes.is_empty() {
             hits.fill(None);
@@ -141,6 +141,7 @@ impl Accel {
                     let (m, t) = (masks[slot as usize], entries[slot as usize]);
                     // Insertion by falling entry: the nearest ends on top.
                     let mut k = len;
+                    // SAFETY: bottom ≤ k ≤ len < STACK.
                     while k > bottom {
                         let (_, _, above) = stack.get_unchecked(k - 1).assume_init();
                         if above >= t {
@@ -164,13 +165,13 @@ impl Accel {
             // The next entry with a ray still within reach of it.
             loop {
                 if len == 0 {
-                    let slots = rays.iter().zip(best).zip(tmax);
-                    for (hit, ((_, found), t)) in hits.iter_mut().zip(slots) {
+                    for (hit, (found, t)) in hits.iter_mut().zip(best.into_iter().zip(tmax)) {
                         *hit = found.map(|(slot, b1, b2)| self.hit(slot, t, b1, b2));
                     }
                     return;
                 }
                 len -= 1;
+                // SAFETY: `len` < `STACK`, and every entry below the old `len` was written.
                 let (child, m, t) = stack.get_unchecked(len).assume_init();
                 let within = within_reach(m, t, &tmax);
                 if within != 0 {

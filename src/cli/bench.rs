@@ -44,9 +44,9 @@ pub struct BenchArgs {
     /// Samples per pixel of a reference bench renders itself.
     #[arg(long, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
     pub reference_spp: u32,
-    /// The configuration ratios compare against, selector:strategy:KxN[:mM][:farS][:sampler][:spp]
-    /// (default: the first; without :spp, at each row's own spp; without :sampler,
-    /// independent).
+    /// The configuration ratios compare against,
+    /// selector:strategy:KxN[:mM][:farS][:sampler][:spp] (default: the first; without :spp, at
+    /// each row's own spp; without :sampler, independent).
     // The brackets are the help text's option syntax, not intra-doc links.
     #[allow(rustdoc::broken_intra_doc_links)]
     #[arg(long)]

@@ -344,8 +344,9 @@ pub fn median(xs: &mut [f64]) -> f64 {
     }
 }
 
-/// Fills each row's ratios against the baseline: `selector:strategy:KxN[:mM][:farS][:sampler][:spp]`. Without
-/// `:spp` (and by default, with the first row's configuration), each row is compared with the
+/// Fills each row's ratios against the baseline:
+/// `selector:strategy:KxN[:mM][:farS][:sampler][:spp]`. Without `:spp` (and by default, with the
+/// first row's configuration), each row is compared with the
 /// baseline configuration at its own spp (or the first baseline row when that spp is missing).
 /// Errors when no row matches.
 pub fn apply_baseline(rows: &mut [BenchRow], baseline: Option<&str>) -> Result<(), String> {
