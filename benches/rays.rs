@@ -12,10 +12,11 @@
 //!   (`Accel::closest_hits`), as the renderer traces a pixel's samples;
 //! * `pixel_bounce`: from the hits of those `PACKET` rays per pixel (other jitters), one cosine
 //!   bounce each, a pixel's consecutive, traced one at a time, and `pixel_bounce_packets`: each
-//!   pixel's in one packet. The rays start within a pixel's footprint but point every way: on
-//!   an Intel Xeon guest (`cargo bench --bench rays -- pixel_bounce`) the packets gave 3.74
-//!   against 4.96 M rays/s single on the town, 5.58 against 7.36 on the 50k city and 13.97
-//!   against 15.40 on the Cornell box, which is why the renderer traces BSDF rays one at a time.
+//!   pixel's in one packet. The rays start within a pixel's footprint but point every way, so
+//!   the packets take the masked walk (`Accel::closest_hits`): on an Intel Xeon guest (`cargo
+//!   bench --bench rays -- pixel_bounce`, two runs) 5.19–5.28 against 4.82–4.92 M rays/s single
+//!   on the town, 7.70–7.76 against 7.31–7.32 on the 50k city, 14.18–14.51 against 14.75–14.87
+//!   on the Cornell box. The renderer still traces its BSDF rays one at a time (README).
 //!
 //! Scenes: `scenes/cornell.glb`, `scenes/town.glb`, and the generated `city` with 50,000 emitters
 //! (seed 1, as `manylights gen city`); with `MANYLIGHTS_BENCH_1M=1` also the 1,000,000-emitter

@@ -67,11 +67,12 @@
 //! lit-surface MSE − Var[ref] (`bench --spp 1 --repeat 100 --width 320`): town 6.51 → 5.85
 //! (seeds 1000, 2000; with the root's floor of ½ it was 5.95, and at that floor 128, 256, 1024,
 //! 2048 and 4096 points gave 6.50, 6.29, 6.08, 6.00 and 5.94), the peers' Lambert copy of the
-//! 50k city 1.162 → 1.121 (seeds 1000–4000), the 50k city 2.431 → 2.409 (seeds 1000–8000); W²-weighted / mean / median
-//! χ² town 0.656 / 0.875 / 0.624 → 0.586 / 0.800 / 0.591, city 0.799 / 1.148 / 0.998 → 0.778 /
-//! 1.092 / 1.007. The cities' lit relMSE rose by 2.2% and 2.3%, the town's fell by 9%: finer
-//! tables, at the root as well, lowered the cities' MSE and raised their relMSE every time, as
-//! more of the choices go to the lights that matter most. Reading the tables only for lanes
+//! 50k city 1.162 → 1.121 (seeds 1000–4000), the 50k city 2.431 → 2.409 (seeds 1000–8000);
+//! W²-weighted / mean / median χ² town 0.656 / 0.875 / 0.624 → 0.586 / 0.800 / 0.591, city
+//! 0.799 / 1.148 / 0.998 → 0.778 / 1.092 / 1.007. The cities' lit relMSE rose by 2.2% and
+//! 2.3%, the town's fell by 9%: finer tables, at the root as well, lowered the cities' MSE and
+//! raised their relMSE every time, as more of the choices go to the lights that matter most.
+//! Reading the tables only for lanes
 //! wider than three cells (the others keeping their own Φ / d²) made the town worse than no
 //! child tables (7.07), and a quarter of the own term as a floor under the table's value left
 //! both scenes worse than the tables alone.
