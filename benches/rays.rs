@@ -4,7 +4,9 @@
 //! * `camera_closest`: one jittered camera ray per pixel of a 256-pixel-wide image (closest hit);
 //! * `shadow_occluded`: from each camera hit to a uniformly chosen point (area-uniform) on a
 //!   uniformly chosen emissive triangle, both ends moved off their surfaces exactly as
-//!   `Accel::segment_occluded` does (any hit);
+//!   `Accel::segment_occluded` does (any hit), by the walk alone (`Accel::occluded_by_walk`), and
+//!   `shadow_occluded_recent`: the same rays as the renderer asks them (`Accel::occluded`: the
+//!   eight triangles that blocked the thread's latest rays first, the walk when none does);
 //! * `bounce_closest`: from each camera hit, a cosine-weighted direction about the face-forward
 //!   geometric normal (closest hit, unbounded);
 //! * `pixel_closest`: `PACKET` jittered camera rays per pixel of a 64-pixel-wide image, traced
@@ -152,19 +154,26 @@ impl RaySet {
         count
     }
 
-    /// Number of closest hits (or of occluded rays, when `occlusion`).
+    /// Number of closest hits (or of occluded rays, when `occlusion`, by the walk alone).
     fn trace(&self, accel: &Accel, occlusion: bool) -> usize {
         let mut count = 0;
         for i in 0..self.len() {
             let (o, d, t) = (self.origins[i], self.dirs[i], self.tmax[i]);
             let found = if occlusion {
-                accel.occluded(o, d, t)
+                accel.occluded_by_walk(o, d, t)
             } else {
                 accel.closest_hit(o, d, t).is_some()
             };
             count += usize::from(found);
         }
         count
+    }
+
+    /// Number of occluded rays, the remembered occluders asked first (`Accel::occluded`).
+    fn occluded_recent(&self, accel: &Accel) -> usize {
+        (0..self.len())
+            .filter(|&i| accel.occluded(self.origins[i], self.dirs[i], self.tmax[i]))
+            .count()
     }
 }
 
@@ -337,6 +346,11 @@ fn bench_scene(c: &mut Criterion<ThreadCpuTime>, name: &str, scene: &Scene) {
             b.iter(|| black_box(set.trace(&accel, occlusion)))
         });
     }
+    let shadow = &sets[1];
+    group.throughput(Throughput::Elements(shadow.len() as u64));
+    group.bench_function("shadow_occluded_recent", |b| {
+        b.iter(|| black_box(shadow.occluded_recent(&accel)))
+    });
     let pixels = &sets[3];
     group.throughput(Throughput::Elements(pixels.len() as u64));
     group.bench_function("pixel_closest_packets", |b| {

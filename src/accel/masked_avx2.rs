@@ -66,7 +66,7 @@ impl Accel {
                     |ray| ray.tmax,
                     |ray, base, triangles| {
                         let hit = nearest_triangle(
-                            &self.triangles,
+                            &self.triangles.blocks,
                             ray_lanes,
                             base,
                             triangles,
@@ -97,7 +97,7 @@ impl Accel {
                     let triangles = node.leaf_triangles(_mm256_movemask_ps(hit) as u32);
                     if triangles != 0 {
                         let hit = nearest_triangle(
-                            &self.triangles,
+                            &self.triangles.blocks,
                             &lanes[r],
                             node.primitive_base,
                             triangles,

@@ -31,6 +31,7 @@ mod cut;
 mod masked_avx2;
 #[cfg(target_arch = "x86_64")]
 mod node_avx2;
+mod occluders;
 mod offset;
 #[cfg(target_arch = "x86_64")]
 mod packet_avx2;
@@ -71,6 +72,9 @@ pub struct Hit {
 }
 
 pub struct Accel {
+    /// This tree's number among the process's (`occluders::new_owner`): it tags the occluders a
+    /// thread remembers.
+    id: u64,
     /// obvhs's tree: its leaf order, and its nodes where obvhs's walk reads them (no AVX2).
     bvh: CwBvh,
     /// Triangles in BVH leaf order, so that a leaf's primitive id indexes them directly.
@@ -111,6 +115,7 @@ impl Accel {
             bvh
         };
         Accel {
+            id: occluders::new_owner(),
             bvh,
             triangles,
             avx2,
@@ -164,7 +169,9 @@ impl Accel {
         }
     }
 
-    /// Whether anything lies on the segment origin + t·dir, t ∈ [0, tmax).
+    /// Whether anything lies on the segment origin + t·dir, t ∈ [0, tmax). The triangles that
+    /// blocked this thread's latest queries are asked first (`occluders`); the walk runs when
+    /// none of them blocks the segment, and the answer is the walk's.
     #[inline]
     pub fn occluded(&self, origin: Vec3, dir: Vec3, tmax: f32) -> bool {
         let ray = guarded_ray(origin, dir, tmax);
@@ -173,7 +180,34 @@ impl Accel {
             // SAFETY: `avx2` is true only when the CPU reported the features (`has_simd_walk`).
             return unsafe { self.occluded_avx2(&ray) };
         }
-        self.occluded_walk(&ray, CwBvhNode::intersect_ray)
+        let remembered = |block: &triangles::Block| {
+            (0..triangles::BLOCK).any(|lane| block.lane(lane).intersect(&ray).is_some())
+        };
+        if occluders::remembered_block(self.id, remembered) {
+            return true;
+        }
+        self.blocker_after_walk(self.occluded_walk(&ray, CwBvhNode::intersect_ray))
+    }
+
+    /// [`occluded`](Self::occluded) by the walk alone, neither asking nor remembering the
+    /// latest occluders: what the BVH itself costs (the ray benchmark's figure beside Embree's).
+    pub fn occluded_by_walk(&self, origin: Vec3, dir: Vec3, tmax: f32) -> bool {
+        let ray = guarded_ray(origin, dir, tmax);
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            // SAFETY: `avx2` is true only when the CPU reported the features (`has_simd_walk`).
+            return unsafe { self.blocker_avx2(&ray, &RayLanes::new(&ray)) }.is_some();
+        }
+        self.occluded_walk(&ray, CwBvhNode::intersect_ray).is_some()
+    }
+
+    /// Whether a walk found `blocker` (a leaf-order slot), which is then remembered.
+    #[inline(always)]
+    fn blocker_after_walk(&self, blocker: Option<u32>) -> bool {
+        if let Some(slot) = blocker {
+            occluders::remember(self.id, &self.triangles.get(slot));
+        }
+        blocker.is_some()
     }
 
     /// Whether the segment from surface point `a` (unit normal `na` on the segment's side) to
@@ -226,7 +260,8 @@ impl Accel {
         let lanes = RayLanes::new(ray);
         let mut best: Option<(u32, f32, f32)> = None;
         let walked = self.walk_one_avx2(ray, |ray, base, mask| {
-            let found = nearest_triangle(&self.triangles, &lanes, base, mask, &mut ray.tmax, false);
+            let blocks = &self.triangles.blocks;
+            let found = nearest_triangle(blocks, &lanes, base, mask, &mut ray.tmax, false);
             best = found.or(best);
             false
         });
@@ -239,13 +274,34 @@ impl Accel {
     #[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,lzcnt")]
     unsafe fn occluded_avx2(&self, ray: &Ray) -> bool {
         let lanes = RayLanes::new(ray);
-        let mut hit = false;
+        let remembered = |block: &triangles::Block| {
+            let mut tmax = ray.tmax;
+            let all = (1 << triangles::BLOCK) - 1;
+            nearest_triangle(std::slice::from_ref(block), &lanes, 0, all, &mut tmax, true).is_some()
+        };
+        if occluders::remembered_block(self.id, remembered) {
+            return true;
+        }
+        self.blocker_after_walk(self.blocker_avx2(ray, &lanes))
+    }
+
+    /// The leaf-order slot of the first triangle the walk finds blocking a guarded ray (`lanes`
+    /// its lanes), if any.
+    ///
+    /// # Safety
+    /// The CPU must support the features of `has_simd_walk`.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,lzcnt")]
+    #[inline]
+    unsafe fn blocker_avx2(&self, ray: &Ray, lanes: &RayLanes) -> Option<u32> {
+        let mut blocker = None;
         self.walk_one_avx2(ray, |ray, base, mask| {
-            hit = nearest_triangle(&self.triangles, &lanes, base, mask, &mut ray.tmax, true)
-                .is_some();
-            hit
+            let blocks = &self.triangles.blocks;
+            blocker = nearest_triangle(blocks, lanes, base, mask, &mut ray.tmax, true)
+                .map(|(slot, _, _)| slot);
+            blocker.is_some()
         });
-        hit
+        blocker
     }
 
     /// Closest hit of a guarded ray, its distance measured from the unguarded origin, the
@@ -289,11 +345,15 @@ impl Accel {
         }
     }
 
-    /// Whether a guarded ray hits anything; the walk ends at the first hit (`node_hits` as in
-    /// `closest_hit_walk`).
+    /// The leaf-order slot of the first triangle found blocking a guarded ray, if any; the walk
+    /// ends there (`node_hits` as in `closest_hit_walk`).
     #[inline(always)]
-    fn occluded_walk(&self, ray: &Ray, node_hits: impl Fn(&CwBvhNode, &Ray, u32) -> u32) -> bool {
-        let mut hit = false;
+    fn occluded_walk(
+        &self,
+        ray: &Ray,
+        node_hits: impl Fn(&CwBvhNode, &Ray, u32) -> u32,
+    ) -> Option<u32> {
+        let mut blocker = None;
         let mut state = self.bvh.new_traversal(ray.direction);
         let mut node;
         // The label ends the whole walk: a plain `break` would only leave the macro's inner
@@ -305,19 +365,15 @@ impl Accel {
                 state,
                 node_hits(node, ray, state.oct_inv4),
                 {
-                    if self
-                        .triangles
-                        .get(state.primitive_id)
-                        .intersect(ray)
-                        .is_some()
-                    {
-                        hit = true;
+                    let slot = state.primitive_id;
+                    if self.triangles.get(slot).intersect(ray).is_some() {
+                        blocker = Some(slot);
                         break 'walk;
                     }
                 }
             );
         }
-        hit
+        blocker
     }
 }
 

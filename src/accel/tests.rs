@@ -34,6 +34,57 @@ fn barycentrics_reconstruct_the_hit_point() {
     assert!(!accel.occluded(origin, dir, hit.t * 0.99));
 }
 
+/// The occluders a thread remembers (`occluders`) never change an answer, on both code paths:
+/// segments from a few origins toward random targets give the walk's answer, and so does each
+/// blocked one asked again short of its nearest hit, where the occluder just remembered lies
+/// beyond its end (nothing blocks it).
+#[test]
+fn remembered_occluders_give_the_walks_answers() {
+    let mut u = uniforms(5);
+    let scene = triangle_soup(&mut u, 400, 1.0);
+    let mut accel = Accel::build(&scene);
+    for avx2 in [false, has_simd_walk()] {
+        accel.avx2 = avx2;
+        let mut blocked = 0;
+        for _ in 0..20 {
+            let origin = Vec3::new(u(), u(), u()) * 12.0 - Vec3::ONE;
+            for _ in 0..50 {
+                let target = Vec3::new(u(), u(), u()) * 12.0 - Vec3::ONE;
+                let (dir, length) = ((target - origin).normalize(), (target - origin).length());
+                let full = accel.occluded(origin, dir, length);
+                assert_eq!(full, accel.occluded_by_walk(origin, dir, length));
+                if full {
+                    blocked += 1;
+                    let nearest = accel.closest_hit(origin, dir, length).expect("blocked");
+                    let short = 0.5 * nearest.t;
+                    assert!(
+                        !accel.occluded(origin, dir, short),
+                        "{origin} {dir} {short}"
+                    );
+                    assert!(!accel.occluded_by_walk(origin, dir, short));
+                }
+            }
+        }
+        assert!(blocked > 100, "only {blocked} of 1000 segments blocked");
+    }
+}
+
+/// A thread that remembers an occluder of one tree does not answer another tree's query with
+/// it: the wall 3 m below the origin blocks a 4 m segment in its own scene only.
+#[test]
+fn another_tree_is_not_answered_with_remembered_occluders() {
+    let mut wall = Accel::build(&quad_scene(-2.0));
+    let mut beyond = Accel::build(&quad_scene(-5.0));
+    let origin = Vec3::new(0.3, -0.4, 1.0);
+    for avx2 in [false, has_simd_walk()] {
+        (wall.avx2, beyond.avx2) = (avx2, avx2);
+        assert!(wall.occluded(origin, -Vec3::Z, 4.0));
+        assert!(!beyond.occluded(origin, -Vec3::Z, 4.0));
+        assert!(beyond.occluded(origin, -Vec3::Z, 7.0));
+        assert!(wall.occluded(origin, -Vec3::Z, 4.0));
+    }
+}
+
 /// Closest hit of origin + t·dir over every triangle, computed in f64 by intersecting the
 /// plane and taking barycentrics from sub-triangle areas: (triangle, t, b1, b2).
 fn brute_force(scene: &Scene, origin: Vec3, dir: Vec3) -> Option<(u32, f64, f64, f64)> {

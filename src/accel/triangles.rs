@@ -61,6 +61,36 @@ pub(super) struct Block {
     pub(super) e2: [[f32; BLOCK]; 3],
 }
 
+impl Block {
+    /// No triangle in any lane.
+    pub(super) const EMPTY: Block = Block {
+        v0: [[0.0; BLOCK]; 3],
+        e1: [[0.0; BLOCK]; 3],
+        e2: [[0.0; BLOCK]; 3],
+    };
+
+    /// The triangle in lane `lane`.
+    #[inline(always)]
+    pub(super) fn lane(&self, lane: usize) -> TestTriangle {
+        let field = |f: &[[f32; BLOCK]; 3]| Vec3::new(f[0][lane], f[1][lane], f[2][lane]);
+        TestTriangle {
+            v0: field(&self.v0),
+            e1: field(&self.e1),
+            e2: field(&self.e2),
+        }
+    }
+
+    /// Puts `triangle` in lane `lane`.
+    #[inline]
+    pub(super) fn set(&mut self, lane: usize, triangle: &TestTriangle) {
+        for axis in 0..3 {
+            self.v0[axis][lane] = triangle.v0[axis];
+            self.e1[axis][lane] = triangle.e1[axis];
+            self.e2[axis][lane] = triangle.e2[axis];
+        }
+    }
+}
+
 /// The triangles in leaf order, in blocks of [`BLOCK`].
 #[derive(Debug)]
 pub(super) struct Triangles {
@@ -75,11 +105,7 @@ impl Triangles {
         let blocks = (0..count.div_ceil(BLOCK))
             .into_par_iter()
             .map(|b| {
-                let mut block = Block {
-                    v0: [[0.0; BLOCK]; 3],
-                    e1: [[0.0; BLOCK]; 3],
-                    e2: [[0.0; BLOCK]; 3],
-                };
+                let mut block = Block::EMPTY;
                 for lane in 0..BLOCK.min(count - b * BLOCK) {
                     let [p0, p1, p2] = corners(b * BLOCK + lane);
                     for axis in 0..3 {
@@ -97,13 +123,7 @@ impl Triangles {
     /// Triangle `slot`'s fields.
     #[inline(always)]
     pub(super) fn get(&self, slot: u32) -> TestTriangle {
-        let (block, lane) = (&self.blocks[slot as usize / BLOCK], slot as usize % BLOCK);
-        let field = |f: &[[f32; BLOCK]; 3]| Vec3::new(f[0][lane], f[1][lane], f[2][lane]);
-        TestTriangle {
-            v0: field(&block.v0),
-            e1: field(&block.e1),
-            e2: field(&block.e2),
-        }
+        self.blocks[slot as usize / BLOCK].lane(slot as usize % BLOCK)
     }
 
     /// Bytes held.

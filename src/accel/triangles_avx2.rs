@@ -8,7 +8,7 @@ use std::arch::x86_64::*;
 
 use obvhs::ray::Ray;
 
-use super::triangles::{Triangles, BLOCK};
+use super::triangles::{Block, BLOCK};
 
 /// A 3-vector with eight values per component.
 pub(super) type Lanes3 = [__m256; 3];
@@ -96,7 +96,7 @@ impl RayLanes {
 /// a call would make the walk keep its vector registers in memory across it.
 #[inline(always)]
 pub(super) unsafe fn nearest_triangle(
-    triangles: &Triangles,
+    blocks: &[Block],
     ray: &RayLanes,
     base: u32,
     mask: u32,
@@ -111,7 +111,7 @@ pub(super) unsafe fn nearest_triangle(
         let k = wide.trailing_zeros() as usize / BLOCK;
         let lanes = (wide >> (k * BLOCK)) as u32 & 0xFF;
         wide &= !(0xFF << (k * BLOCK));
-        let block = &triangles.blocks[first + k];
+        let block = &blocks[first + k];
         // The rows are 32-byte aligned (`Block`); a plain read needs no call to an intrinsic.
         let load =
             |f: &[[f32; BLOCK]; 3]| f.map(|row| std::ptr::read(row.as_ptr().cast::<__m256>()));
