@@ -180,11 +180,10 @@ impl Accel {
             // SAFETY: `avx2` is true only when the CPU reported the features (`has_simd_walk`).
             return unsafe { self.occluded_avx2(&ray) };
         }
-        let remembered = |block: &triangles::Block| {
-            (0..triangles::BLOCK).any(|lane| block.lane(lane).intersect(&ray).is_some())
-        };
-        if occluders::remembered_block(self.id, remembered) {
-            return true;
+        if let Some(block) = occluders::remembered(self.id) {
+            if (0..triangles::BLOCK).any(|lane| block.lane(lane).intersect(&ray).is_some()) {
+                return true;
+            }
         }
         self.blocker_after_walk(self.occluded_walk(&ray, CwBvhNode::intersect_ray))
     }
@@ -274,13 +273,11 @@ impl Accel {
     #[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,lzcnt")]
     unsafe fn occluded_avx2(&self, ray: &Ray) -> bool {
         let lanes = RayLanes::new(ray);
-        let remembered = |block: &triangles::Block| {
-            let mut tmax = ray.tmax;
-            let all = (1 << triangles::BLOCK) - 1;
-            nearest_triangle(std::slice::from_ref(block), &lanes, 0, all, &mut tmax, true).is_some()
-        };
-        if occluders::remembered_block(self.id, remembered) {
-            return true;
+        if let Some(block) = occluders::remembered(self.id) {
+            let (all, mut tmax) = ((1 << triangles::BLOCK) - 1, ray.tmax);
+            if nearest_triangle(&[block], &lanes, 0, all, &mut tmax, true).is_some() {
+                return true;
+            }
         }
         self.blocker_after_walk(self.blocker_avx2(ray, &lanes))
     }

@@ -50,11 +50,12 @@ pub(super) fn new_owner() -> u64 {
     NEXT.fetch_add(1, Ordering::Relaxed)
 }
 
-/// Whether this thread remembers occluders of `owner` and `blocks(block)` says one of them
-/// blocks the ray (the caller's test of the eight lanes).
+/// A copy of the occluders this thread remembers of `owner`, if it remembers that tree's (a copy
+/// rather than a closure over them: a closure with the caller's AVX2 code would not be inlined
+/// into the thread-local access, which is compiled without it).
 #[inline(always)]
-pub(super) fn remembered_block(owner: u64, blocks: impl FnOnce(&Block) -> bool) -> bool {
-    RECENT.with_borrow(|recent| recent.owner == owner && blocks(&recent.block))
+pub(super) fn remembered(owner: u64) -> Option<Block> {
+    RECENT.with_borrow(|recent| (recent.owner == owner).then_some(recent.block))
 }
 
 /// Remembers `triangle`, which blocked a shadow ray in the `Accel` numbered `owner`, in place of
