@@ -9,6 +9,8 @@
 //! distance otherwise than obvhs: `node_avx2`).
 //!
 //! The triangles are stored eight to a block, field by field (`triangles`), and tested there.
+//! A shadow ray first asks the eight triangles that blocked the thread's latest ones, held as
+//! one such block (`occluders`), and walks the tree only when none of them blocks it.
 
 use glam::{UVec2, Vec3};
 use obvhs::cwbvh::{node::CwBvhNode, CwBvh};
