@@ -266,6 +266,12 @@ fn render_writes_exr_png_and_json_summary() {
     // The render's CPU seconds, and the same per camera sample.
     let cpu = summary["seconds"]["render_cpu"].as_f64().unwrap();
     assert!(cpu.is_finite() && cpu >= 0.0, "render_cpu {cpu}");
+    // The whole process's CPU holds the render's.
+    let process = summary["seconds"]["process_cpu"].as_f64().unwrap();
+    assert!(
+        process.is_finite() && process >= cpu,
+        "process_cpu {process}, render {cpu}"
+    );
     let per_sample = summary["cpu_us_per_camera_sample"].as_f64().unwrap();
     assert!((per_sample * f64::from(32 * 32 * 4) - 1e6 * cpu).abs() <= 1e-9 * (1e6 * cpu));
     assert!(png.exists() && exr.exists());

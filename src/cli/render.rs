@@ -53,6 +53,10 @@ pub struct Timings {
     /// the system does not say): unlike `render`, it does not grow while other jobs hold the
     /// cores.
     pub render_cpu: Option<f64>,
+    /// CPU seconds the whole process had used when the images were written (start-up, load,
+    /// builds, render, write; user and system, all threads): what a whole-process measure such
+    /// as `/usr/bin/time` counts, but for the exit. `render_cpu` of it is the render's.
+    pub process_cpu: Option<f64>,
 }
 
 /// What `render` prints, and writes with `--json`.
@@ -194,6 +198,7 @@ fn render_scene(
         write_png_preview(png, &mean, args.exposure)?;
     }
     seconds.write = t.elapsed().as_secs_f64();
+    seconds.process_cpu = process_cpu_seconds();
 
     let rays_total = stats.rays.total_rays();
     Ok(RenderSummary {
@@ -291,8 +296,12 @@ fn print_summary(s: &RenderSummary) {
         s.image_mean
     );
     if let (Some(cpu), Some(per_sample)) = (t.render_cpu, s.cpu_us_per_camera_sample) {
+        let process = t
+            .process_cpu
+            .map_or(String::new(), |p| format!("; the whole process {p:.3} s"));
         println!(
-            "cpu       render {cpu:.3} s on {} threads, {per_sample:.3} µs per camera sample",
+            "cpu       render {cpu:.3} s on {} threads, {per_sample:.3} µs per camera \
+             sample{process}",
             s.threads
         );
     }
