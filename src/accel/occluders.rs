@@ -3,10 +3,9 @@
 //! triangles deep, tested in one block (one AVX2 pass).
 //!
 //! An occlusion query asks whether anything lies on a segment, so any one triangle that blocks
-//! it answers the query. The shadow rays of one pixel's samples, and of its neighbours', are
-//! mostly blocked by the same few triangles (the facade a point faces, the ground, the building
-//! across the street), so the walk runs only when none of the eight remembered ones blocks the
-//! ray; the triangle it then finds replaces the oldest. The answer is the walk's: a remembered
+//! it answers the query. The shadow rays of one pixel's samples, and of its neighbours', tend to
+//! be blocked by the same few triangles (the shares below), so the walk runs only when none of
+//! the eight remembered ones blocks the ray; the triangle it then finds replaces the oldest. The answer is the walk's: a remembered
 //! triangle blocks the ray exactly when the walk's leaf test says it does (the same triangle test
 //! on the same guarded ray, t ∈ [tmin, tmax)), and the walk would reach it, its leaf box holding
 //! it (up to a box corner grazed within a few ulps: `node_avx2`). A remembered triangle cannot
