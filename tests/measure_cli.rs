@@ -502,31 +502,18 @@ fn far_sine_is_a_usage_error_without_the_light_tree() {
 
 #[test]
 fn bench_sweeps_the_far_sine_for_the_light_tree_only() {
-    let dir = tempfile::tempdir().unwrap();
-    let scene = cornell_copy(dir.path());
-    let report = dir.path().join("b.json");
-    let o = manylights(&[
-        "bench",
-        scene.to_str().unwrap(),
-        "--width",
-        "8",
+    let (o, rows) = small_bench(&[
         "--spp",
         "2",
         "--repeat",
         "1",
-        "--reference-spp",
-        "16",
         "--selectors",
         "power,bvh",
         "--strategies",
         "mis",
         "--far-sin",
         "0,0.3,0.6",
-        "--json",
-        report.to_str().unwrap(),
     ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let rows = json(&report);
     let got: Vec<(String, f64)> = rows
         .as_array()
         .unwrap()

@@ -20,10 +20,8 @@ use obvhs::ray::Ray;
 
 use super::node_avx2::{self, NodeRay};
 use super::triangles_avx2::{nearest_triangle, RayLanes};
-use super::{walk_avx2, Accel, Hit, PACKET};
-
-/// Stack entries (node, ray mask, least entry): as `walk_avx2`'s, 7 a level and one.
-const STACK: usize = 512;
+use super::walk_avx2::{self, push_by_distance, STACK};
+use super::{Accel, Hit, PACKET};
 
 impl Accel {
     /// Closest hits of `rays` (guarded, 2 ..= `PACKET` of them), written to `hits`.
@@ -47,6 +45,7 @@ impl Accel {
             tmax[i] = ray.tmax;
         }
         let mut best: [Option<(u32, f32, f32)>; PACKET] = [None; PACKET];
+        // Entries (node, ray mask, least entry), as many as `walk_avx2`'s.
         let mut stack: [MaybeUninit<(u32, u32, f32)>; STACK] = [MaybeUninit::uninit(); STACK];
         let mut len = 0usize;
         let (mut index, mut mask) = (0u32, (1u32 << rays.len()) - 1);
@@ -139,19 +138,8 @@ impl Accel {
                     inner &= inner - 1;
                     let child = node.child_base + _bzhi_u32(imask, slot).count_ones();
                     let (m, t) = (masks[slot as usize], entries[slot as usize]);
-                    // Insertion by falling entry: the nearest ends on top.
-                    let mut k = len;
-                    // SAFETY: bottom ≤ k ≤ len < STACK.
-                    while k > bottom {
-                        let (_, _, above) = stack.get_unchecked(k - 1).assume_init();
-                        if above >= t {
-                            break;
-                        }
-                        *stack.get_unchecked_mut(k) = *stack.get_unchecked(k - 1);
-                        k -= 1;
-                    }
-                    *stack.get_unchecked_mut(k) = MaybeUninit::new((child, m, t));
-                    len = (len + 1).min(STACK - 1);
+                    // SAFETY: bottom ≤ len < STACK, the entries below len written.
+                    push_by_distance(&mut stack, bottom, &mut len, (child, m, t), |e| e.2);
                 }
                 if let Some((child, rays, t)) = next {
                     // Its rays that a nearer hit in the leaves has not put out of reach.

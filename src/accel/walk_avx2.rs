@@ -28,13 +28,13 @@ use super::planes::{ChildPlanes, WalkNode};
 /// so a walk through a tree d levels deep holds at most 7·d + 1; 512 (4 KiB, left
 /// uninitialised) covers 73 levels, where obvhs's own walk keeps 32. A deeper tree drops the
 /// newest entries rather than writing past the end, as obvhs's stack does.
-const STACK: usize = 512;
+pub(super) const STACK: usize = 512;
 
 /// Walks the subtree of node `start` (0: the whole BVH) of `nodes` (obvhs's, with their child
-/// boxes as f32 planes) for a query `state` (one ray, or the rays of a packet): `children(state, planes, imask)` gives the hit
-/// lanes and entry distances of a node's children from its planes and its mask of inner
-/// children (for a packet: at least the lanes any ray hits, at no more than the least entry
-/// among the rays that hit them),
+/// boxes as f32 planes) for a query `state` (one ray, or the rays of a packet):
+/// `children(state, planes, imask)` gives the hit lanes and entry distances of a node's children
+/// from its planes and its mask of inner children (for a packet: at least the lanes any ray
+/// hits, at no more than the least entry among the rays that hit them),
 /// `reach(state)` the farthest distance any ray still looks at (its tmax), and
 /// `leaf(state, base, mask)` tests the triangles in leaf-order slots `base + i` for the set
 /// bits i of `mask` (the triangles of a node's leaf children that the query enters), possibly
@@ -114,19 +114,8 @@ pub(super) unsafe fn walk<S>(
                     let node = child(slot);
                     let t = entries[slot as usize];
                     prefetch(nodes, node);
-                    // Insertion by falling distance: the nearest ends on top.
-                    let mut k = len;
-                    // SAFETY: bottom ≤ k ≤ len < STACK.
-                    while k > bottom {
-                        let (_, above) = stack.get_unchecked(k - 1).assume_init();
-                        if above >= t {
-                            break;
-                        }
-                        *stack.get_unchecked_mut(k) = *stack.get_unchecked(k - 1);
-                        k -= 1;
-                    }
-                    *stack.get_unchecked_mut(k) = MaybeUninit::new((node, t));
-                    len = (len + 1).min(STACK - 1);
+                    // SAFETY: bottom ≤ len < STACK, the entries below len written.
+                    push_by_distance(&mut stack, bottom, &mut len, (node, t), |e| e.1);
                 }
             }
         }
@@ -143,6 +132,35 @@ pub(super) unsafe fn walk<S>(
             }
         }
     }
+}
+
+/// Pushes `entry` onto the entries of `stack` from `bottom` to `len`, kept by falling
+/// `distance(entry)` (insertion: the nearest ends on top; of two at the same distance the later
+/// one lies on top), and counts it in `len`, which stays below `STACK` (a full stack loses its
+/// newest entry). Both walks order a node's children this way.
+///
+/// # Safety
+/// `bottom ≤ *len < STACK`, and the entries from `bottom` to `*len` are written.
+#[inline(always)]
+pub(super) unsafe fn push_by_distance<E: Copy>(
+    stack: &mut [MaybeUninit<E>; STACK],
+    bottom: usize,
+    len: &mut usize,
+    entry: E,
+    distance: impl Fn(&E) -> f32,
+) {
+    let t = distance(&entry);
+    let mut k = *len;
+    // SAFETY: bottom ≤ k ≤ len < STACK, and the entries from bottom to len are written.
+    while k > bottom {
+        if distance(&stack.get_unchecked(k - 1).assume_init()) >= t {
+            break;
+        }
+        *stack.get_unchecked_mut(k) = *stack.get_unchecked(k - 1);
+        k -= 1;
+    }
+    *stack.get_unchecked_mut(k) = MaybeUninit::new(entry);
+    *len = (*len + 1).min(STACK - 1);
 }
 
 /// Starts loading the node at `index` (four cache lines).

@@ -72,10 +72,9 @@
 //! 0.799 / 1.148 / 0.998 → 0.778 / 1.092 / 1.007. The cities' lit relMSE rose by 2.2% and
 //! 2.3%, the town's fell by 9%: finer tables, at the root as well, lowered the cities' MSE and
 //! raised their relMSE every time, as more of the choices go to the lights that matter most.
-//! Reading the tables only for lanes
-//! wider than three cells (the others keeping their own Φ / d²) made the town worse than no
-//! child tables (7.07), and a quarter of the own term as a floor under the table's value left
-//! both scenes worse than the tables alone.
+//! Reading the tables only for lanes wider than three cells (the others keeping their own
+//! Φ / d²) made the town worse than no child tables (7.07), and a quarter of the own term as a
+//! floor under the table's value left both scenes worse than the tables alone.
 //! At a glossy receiver every lane's value is multiplied by its specular lobe factor
 //! 1 + g / (1 + λ·(1 − cos θm))² ([`Lobe`]; θm the angle from the mirror direction less θb),
 //! which is ≥ 1 and finite, so the lanes that get 0 are the same. One camera sample's lit-surface
@@ -231,8 +230,7 @@ fn weighted(cos_sharp: f32, cos_whole: f32, outside_sharp: bool, outside: bool) 
 /// (`power_prefix`). A lane is far where its bounding sphere subtends a half-angle θb with
 /// sin θb < `far_sin` (the tree's, [`DEFAULT_FAR_SIN`] unless `--far-sin` says otherwise) and
 /// its normal cone has cos θo > `FAR_COS`, at a receiver without a specular lobe (a glossy one
-/// mirrors single lights of a cluster). One camera sample's lit-surface
-/// MSE (`bench --spp 1 --repeat 100 --width 320 --seed 1000`, bvh + mis) against a walk that
+/// mirrors single lights of a cluster). One camera sample's lit-surface MSE (`bench --spp 1 --repeat 100 --width 320 --seed 1000`, bvh + mis) against a walk that
 /// always descends, sin θb below 0.2, 0.3 and 0.5 (cos θo above 0.5, 0, 0): peers' Lambert copy
 /// of the 50k city +0.4, +1.3, +1.9% (relMSE +0.8, +3.1, +5.3%); town +0.4, +1.0, +2.8%; the 50k
 /// city (50 repeats) +0.1, +0.5, +0.8%. Without the glossy exception sin θb < 0.1 and cos θo >
