@@ -9,7 +9,7 @@ use super::estimator::{Estimator, SampleCounts};
 use crate::accel::PACKET;
 use crate::color::luminance;
 use crate::film::{classify, Film, PixelStats, SampleClass};
-use crate::sampling::sampler::{CameraSample, PixelSampler, Sampler, SamplerKind};
+use crate::sampling::sampler::{draw_together, CameraSample, PixelSampler, Sampler, SamplerKind};
 use crate::scene::{Camera, CameraRays};
 
 const TILE: u32 = 16;
@@ -145,9 +145,12 @@ fn render_tile(
                 let count = (opts.spp - first).min(PACKET as u32) as usize;
                 // Slots past the pixel's last sample are never traced nor read.
                 let mut samples = [pixel_sampler.camera_sample(first); PACKET];
-                let mut rays = [(Vec3::ZERO, Vec3::ZERO); PACKET];
-                for (i, (cs, ray)) in samples.iter_mut().zip(&mut rays).enumerate().take(count) {
+                for (i, cs) in samples.iter_mut().enumerate().take(count) {
                     *cs = pixel_sampler.camera_sample(first + i as u32);
+                }
+                draw_together(&mut samples[..count]);
+                let mut rays = [(Vec3::ZERO, Vec3::ZERO); PACKET];
+                for (cs, ray) in samples.iter().zip(&mut rays).take(count) {
                     let [jx, jy] = cs.pixel_jitter();
                     *ray = camera.ray(x as f32 + jx, y as f32 + jy);
                 }
@@ -169,12 +172,13 @@ fn render_tile(
             // Slot i is sample i % spp of the run's pixel i / spp; slots past the run's last
             // sample are never traced nor read.
             let mut samples = [samplers[0].camera_sample(0); PACKET];
+            for (i, cs) in samples.iter_mut().enumerate().take(count) {
+                *cs = samplers[i / spp].camera_sample((i % spp) as u32);
+            }
+            draw_together(&mut samples[..count]);
             let mut rays = [(Vec3::ZERO, Vec3::ZERO); PACKET];
-            let slots = samples.iter_mut().zip(&mut rays).take(count);
-            for (i, (cs, ray)) in slots.enumerate() {
-                let (p, s) = (i / spp, (i % spp) as u32);
-                *cs = samplers[p].camera_sample(s);
-                let (x, y) = run[p];
+            for (i, (cs, ray)) in samples.iter().zip(&mut rays).take(count).enumerate() {
+                let (x, y) = run[i / spp];
                 let [jx, jy] = cs.pixel_jitter();
                 *ray = camera.ray(x as f32 + jx, y as f32 + jy);
             }
@@ -282,23 +286,29 @@ mod tests {
     use crate::select::SelectorKind;
 
     /// Rays traced in packets (a pixel's eight at a time, or several pixels' when spp < 8),
-    /// with their light choices prefetched (power selector), give every pixel exactly the sums
-    /// of tracing and shading its samples one at a time.
+    /// with their light choices prefetched (power selector) and their Sobol numbers drawn
+    /// together, give every pixel exactly the sums of tracing and shading its samples one at a
+    /// time, each making its own numbers.
     #[test]
     fn packets_give_the_pixels_of_one_ray_at_a_time() {
         for kind in [SelectorKind::Bvh, SelectorKind::Power] {
-            packets_match_single_rays(kind);
+            for sampler in [SamplerKind::Independent, SamplerKind::Sobol] {
+                packets_match_single_rays(kind, sampler);
+            }
         }
     }
 
-    fn packets_match_single_rays(kind: SelectorKind) {
+    fn packets_match_single_rays(kind: SelectorKind, sampler: SamplerKind) {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.glb");
         let scene = load_gltf(&path, &CameraChoice::default()).unwrap();
         let camera = scene.camera.clone().unwrap();
         let prepared = PreparedScene::new(scene, kind);
         let estimator = prepared.estimator(Strategy::Mis, 1, 1);
         for spp in [1, 3, 8, 11] {
-            let opts = RenderOptions::new(19, 13, spp, 5);
+            let opts = RenderOptions {
+                sampler,
+                ..RenderOptions::new(19, 13, spp, 5)
+            };
             let (film, stats) = render(&estimator, &camera, &opts);
             let sampler = Sampler::new(opts.sampler, opts.seed, 0, spp, 1, 1);
             let mut counts = SampleCounts::default();
@@ -318,11 +328,11 @@ mod tests {
                     assert_eq!(
                         film.pixels[(y * opts.width + x) as usize],
                         pixel,
-                        "spp {spp}"
+                        "spp {spp}, {sampler:?}"
                     );
                 }
             }
-            assert_eq!(stats.rays, counts, "spp {spp}");
+            assert_eq!(stats.rays, counts, "spp {spp}, {sampler:?}");
         }
     }
 }

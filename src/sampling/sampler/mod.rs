@@ -32,16 +32,25 @@
 //! stratify each render's own points (index s·… relative to the render, over the count in the
 //! last column), with permutations seeded by F as well: every pass is its own stratified set.
 //!
+//! Where the sampler is Sobol with K = N = 1, a packet's camera samples have their numbers
+//! drawn together in AVX2 lanes (`drawn`), the same bits as one at a time.
+//!
 //! The 32-bit sequences give 24-bit f32 coordinates; the light choice, which may pick among
 //! millions of lights, appends 21 hashed random bits to the sequence's 32 to fill an f64
 //! mantissa, so the choice stays exactly uniform.
 
+mod drawn;
 mod halton;
 mod independent;
 mod lhs;
 mod scramble;
 mod sobol;
+#[cfg(target_arch = "x86_64")]
+mod sobol_avx2;
 mod stratified;
+
+pub use drawn::draw_together;
+use drawn::Drawn;
 
 use scramble::{hash, subseed};
 use sobol::Reversed;
@@ -92,6 +101,8 @@ pub struct Sampler {
     spp: u64,
     k: u64,
     n: u64,
+    /// Whether the CPU has AVX2 (a packet's Sobol numbers are then drawn together: `drawn`).
+    avx2: bool,
 }
 
 impl Sampler {
@@ -105,6 +116,7 @@ impl Sampler {
             spp: spp as u64,
             k: k as u64,
             n: n as u64,
+            avx2: crate::cpu::has_avx2_fma(),
         }
     }
 
@@ -148,6 +160,7 @@ impl PixelSampler {
         CameraSample {
             pixel: self,
             s: s as u64,
+            drawn: None,
         }
     }
 
@@ -243,6 +256,8 @@ impl PixelSampler {
 pub struct CameraSample<'a> {
     pixel: &'a PixelSampler,
     s: u64,
+    /// Its numbers, where they were drawn with its packet's ([`draw_together`]; then K = N = 1).
+    drawn: Option<Drawn>,
 }
 
 /// 2^-53: a 53-bit integer times this is a fraction in [0, 1).
@@ -266,12 +281,19 @@ impl CameraSample<'_> {
     /// The point inside the pixel, in [0,1)².
     #[inline]
     pub fn pixel_jitter(&self) -> [f32; 2] {
+        if let Some(d) = &self.drawn {
+            return d.jitter;
+        }
         self.pixel.get_2d(PIXEL, 1, self.s, 0)
     }
 
     /// The number that chooses light slot k's light, in [0, 1) with 53 bits.
     #[inline(always)]
     pub fn light_choice(&self, k: u32) -> f64 {
+        if let Some(d) = &self.drawn {
+            debug_assert_eq!(k, 0, "drawn numbers are slot 0's");
+            return d.light_choice;
+        }
         let sm = &self.pixel.sampler;
         if sm.kind == SamplerKind::Independent {
             // All 53 bits from one hash.
@@ -300,6 +322,10 @@ impl CameraSample<'_> {
     /// The 2D number that places point n on light slot k's light.
     #[inline]
     pub fn light_point(&self, k: u32, n: u32) -> [f32; 2] {
+        if let Some(d) = &self.drawn {
+            debug_assert_eq!((k, n), (0, 0), "drawn numbers are slot 0's");
+            return d.light_point;
+        }
         let sm = &self.pixel.sampler;
         let slot = k as u64 * sm.n + n as u64;
         let per_sample = sm.k * sm.n;
@@ -309,6 +335,10 @@ impl CameraSample<'_> {
     /// The number that chooses BSDF slot j's lobe.
     #[inline]
     pub fn bsdf_lobe(&self, j: u32) -> f32 {
+        if let Some(d) = &self.drawn {
+            debug_assert_eq!(j, 0, "drawn numbers are slot 0's");
+            return d.bsdf_lobe;
+        }
         let sm = &self.pixel.sampler;
         if sm.kind == SamplerKind::Sobol {
             let p = self
@@ -323,6 +353,10 @@ impl CameraSample<'_> {
     /// together (the same numbers; Sobol's one 3D point is then shuffled once).
     #[inline]
     pub fn bsdf_lobe_and_direction(&self, j: u32) -> (f32, [f32; 2]) {
+        if let Some(d) = &self.drawn {
+            debug_assert_eq!(j, 0, "drawn numbers are slot 0's");
+            return (d.bsdf_lobe, d.bsdf_direction);
+        }
         let sm = &self.pixel.sampler;
         if sm.kind == SamplerKind::Sobol {
             let index = self.pixel.absolute(sm.k * sm.n, self.s, j as u64);
@@ -336,6 +370,10 @@ impl CameraSample<'_> {
     /// The 2D number that gives BSDF (or hemisphere) slot j's direction.
     #[inline]
     pub fn bsdf_direction(&self, j: u32) -> [f32; 2] {
+        if let Some(d) = &self.drawn {
+            debug_assert_eq!(j, 0, "drawn numbers are slot 0's");
+            return d.bsdf_direction;
+        }
         let sm = &self.pixel.sampler;
         self.pixel
             .get_2d(BSDF_DIRECTION, sm.k * sm.n, self.s, j as u64)

@@ -77,8 +77,52 @@ const fn reversed_tables(dim: usize) -> [[u32; 256]; 4] {
     xor_tables(reversed)
 }
 
-static DIM1_REVERSED: [[u32; 256]; 4] = reversed_tables(1);
-static DIM2_REVERSED: [[u32; 256]; 4] = reversed_tables(2);
+pub(super) static DIM1_REVERSED: [[u32; 256]; 4] = reversed_tables(1);
+pub(super) static DIM2_REVERSED: [[u32; 256]; 4] = reversed_tables(2);
+
+/// The 32-bit scrambling seeds the functions below derive from a group's 64-bit seed, for
+/// points below index 2^32: the index shuffle's, the first coordinate's and the second and
+/// third coordinates' (two SplitMix64 steps); made once per pixel and group where a packet's
+/// points are drawn together (`sobol_avx2`), rather than once per point.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct GroupSeeds {
+    pub(super) shuffle: u32,
+    pub(super) first: u32,
+    pub(super) second: u32,
+    pub(super) third: u32,
+}
+
+impl GroupSeeds {
+    /// The seeds of a group whose seed is `seed`.
+    pub(super) fn of(seed: u64) -> GroupSeeds {
+        GroupSeeds {
+            shuffle: seed as u32,
+            first: (seed >> 32) as u32,
+            second: subseed(seed, 0) as u32,
+            third: subseed(seed, 1) as u32,
+        }
+    }
+}
+
+/// Eight groups' seeds, one a lane: [`GroupSeeds`] field by field.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct SeedLanes {
+    pub(super) shuffle: [u32; 8],
+    pub(super) first: [u32; 8],
+    pub(super) second: [u32; 8],
+    pub(super) third: [u32; 8],
+}
+
+impl SeedLanes {
+    /// Puts `seeds` in lane `lane`.
+    #[inline]
+    pub(super) fn set(&mut self, lane: usize, seeds: &GroupSeeds) {
+        self.shuffle[lane] = seeds.shuffle;
+        self.first[lane] = seeds.first;
+        self.second[lane] = seeds.second;
+        self.third[lane] = seeds.third;
+    }
+}
 
 /// Sobol dimension `tables` of `index`: the XOR of the generator columns of its set bits.
 #[inline]
@@ -129,6 +173,12 @@ static UNIT_OF_BYTE: [[f32; 256]; 3] = {
 };
 
 impl Reversed {
+    /// The coordinate's bits in reverse order, as the scrambling leaves them.
+    #[cfg(test)]
+    pub(super) fn word(self) -> u32 {
+        self.0
+    }
+
     /// The coordinate as a 32-bit binary fraction.
     #[inline]
     pub fn bits(self) -> u32 {
