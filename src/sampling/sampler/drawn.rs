@@ -1,7 +1,9 @@
-//! A packet's numbers drawn together. Where the sampler is Sobol, each camera sample has one
-//! light slot with one point (K = N = 1) and the CPU has AVX2, the numbers of a packet's camera
-//! samples (up to eight) are made in AVX2 lanes (`sobol_avx2`) when the packet is formed, bit
-//! for bit the numbers each would make alone; each `CameraSample` then hands out its own.
+//! A packet's numbers drawn together. Where each camera sample has one light slot with one
+//! point (K = N = 1) and the CPU has AVX2, the numbers of a packet's camera samples (up to
+//! eight) are made in AVX2 lanes when the packet is formed, bit for bit the numbers each would
+//! make alone; each `CameraSample` then hands out its own. Sobol points come from `sobol_avx2`;
+//! independent numbers from `hash_avx2`, which also mixes each sample's index once for all its
+//! dimensions instead of once per dimension.
 
 use super::sobol::{GroupSeeds, SeedLanes};
 use super::*;
@@ -20,18 +22,61 @@ pub(super) struct Drawn {
 }
 
 /// Draws the numbers of `samples` together where the module header says, else leaves them to
-/// be made one at a time, as they are made for more than eight samples or for points at
-/// indices from 2^32 on.
+/// be made one at a time, as they are made for more than eight samples, for the other sequences
+/// or for Sobol points at indices from 2^32 on.
 pub fn draw_together(samples: &mut [CameraSample]) {
     let Some(last) = samples.last() else {
         return;
     };
     let sm = &last.pixel.sampler;
-    if samples.len() > LANES
-        || !(sm.kind == SamplerKind::Sobol && sm.k == 1 && sm.n == 1 && sm.avx2)
-    {
+    if samples.len() > LANES || !(sm.k == 1 && sm.n == 1 && sm.avx2) {
         return;
     }
+    match sm.kind {
+        SamplerKind::Sobol => draw_sobol(samples),
+        SamplerKind::Independent => draw_independent(samples),
+        _ => {}
+    }
+}
+
+/// The dimensions an independent camera sample reads (one hash each): the pixel jitter, the
+/// light choice, the light point, the BSDF lobe and the BSDF direction.
+const INDEPENDENT: [u64; 5] = [PIXEL, LIGHT_CHOICE, LIGHT_POINT, BSDF_LOBE, BSDF_DIRECTION];
+
+/// `draw_together` for the independent sampler: the numbers `get_1d`, `get_2d` and
+/// `light_choice` make from the same hashes.
+fn draw_independent(samples: &mut [CameraSample]) {
+    // Spare lanes repeat the last sample.
+    let lane = |i: usize| &samples[i.min(samples.len() - 1)];
+    let index: [u64; LANES] = std::array::from_fn(|i| lane(i).pixel.absolute(1, lane(i).s, 0));
+    let seeds = INDEPENDENT.map(|dim| std::array::from_fn(|i| lane(i).pixel.seeds[dim as usize]));
+    let [jitter, choice, point, lobe, direction] = independent_hashes(index, &seeds);
+    let two = |h: u64| [to_f32((h >> 32) as u32), to_f32(h as u32)];
+    for (i, cs) in samples.iter_mut().enumerate() {
+        cs.drawn = Some(Drawn {
+            jitter: two(jitter[i]),
+            light_choice: (choice[i] >> 11) as f64 * TO_UNIT_53,
+            light_point: two(point[i]),
+            bsdf_lobe: to_f32((lobe[i] >> 32) as u32),
+            bsdf_direction: two(direction[i]),
+        });
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+fn independent_hashes(index: [u64; LANES], seeds: &[[u64; LANES]; 5]) -> [[u64; LANES]; 5] {
+    // SAFETY: `draw_together` draws only where the sampler's `avx2` is true, which it is only
+    // when the CPU reported AVX2.
+    unsafe { super::hash_avx2::hashes(index, seeds) }
+}
+
+#[cfg(not(target_arch = "x86_64"))]
+fn independent_hashes(_: [u64; LANES], _: &[[u64; LANES]; 5]) -> [[u64; LANES]; 5] {
+    unreachable!("no AVX2 off x86-64")
+}
+
+/// `draw_together` for Sobol points.
+fn draw_sobol(samples: &mut [CameraSample]) {
     let mut index = [0u32; LANES];
     let mut seeds = [SeedLanes::default(); 3];
     // Lanes of one pixel share its seeds, made once; spare lanes repeat the last sample.
@@ -54,7 +99,8 @@ pub fn draw_together(samples: &mut [CameraSample]) {
             lanes.set(lane, group);
         }
     }
-    // SAFETY: the sampler's `avx2` is true only when the CPU reported AVX2.
+    // SAFETY: `draw_together` draws only where the sampler's `avx2` is true, which it is only
+    // when the CPU reported AVX2.
     let drawn = unsafe { draw(index, &seeds) };
     for (lane, cs) in samples.iter_mut().enumerate() {
         let seed = cs.pixel.seeds[LIGHT_POINT as usize];

@@ -32,8 +32,8 @@
 //! stratify each render's own points (index s·… relative to the render, over the count in the
 //! last column), with permutations seeded by F as well: every pass is its own stratified set.
 //!
-//! Where the sampler is Sobol with K = N = 1, a packet's camera samples have their numbers
-//! drawn together in AVX2 lanes (`drawn`), the same bits as one at a time.
+//! Where the sampler is independent or Sobol with K = N = 1, a packet's camera samples have
+//! their numbers drawn together in AVX2 lanes (`drawn`), the same bits as one at a time.
 //!
 //! The 32-bit sequences give 24-bit f32 coordinates; the light choice, which may pick among
 //! millions of lights, appends 21 hashed random bits to the sequence's 32 to fill an f64
@@ -41,6 +41,8 @@
 
 mod drawn;
 mod halton;
+#[cfg(target_arch = "x86_64")]
+mod hash_avx2;
 mod independent;
 mod lhs;
 mod scramble;
@@ -101,7 +103,7 @@ pub struct Sampler {
     spp: u64,
     k: u64,
     n: u64,
-    /// Whether the CPU has AVX2 (a packet's Sobol numbers are then drawn together: `drawn`).
+    /// Whether the CPU has AVX2 (a packet's numbers are then drawn together: `drawn`).
     avx2: bool,
 }
 
