@@ -11,7 +11,7 @@ use glam::Vec3;
 use std::f32::consts::{FRAC_1_PI, PI};
 
 use crate::color::luminance;
-use crate::sampling::warp::{self, Frame};
+use crate::sampling::warp::Frame;
 use crate::scene::Material;
 
 /// GGX α below this is clamped: a perfect mirror cannot be reached by light sampling.
@@ -182,9 +182,17 @@ impl Brdf {
     }
 
     /// Samples wi: the specular lobe with probability p_s (GGX visible normals, Heitz 2018,
-    /// reflected about the sampled half vector), else the cosine-weighted diffuse lobe.
+    /// reflected about the sampled half vector, from `u`), else the cosine-weighted diffuse
+    /// lobe (`cosine`: `warp::cosine_hemisphere(u)`, asked for only when that lobe is taken).
     /// None when the sample falls below the surface or the material reflects nothing.
-    pub fn sample(&self, n: Vec3, wo: Vec3, u_lobe: f32, u: [f32; 2]) -> Option<Vec3> {
+    pub fn sample(
+        &self,
+        n: Vec3,
+        wo: Vec3,
+        u_lobe: f32,
+        u: [f32; 2],
+        cosine: impl FnOnce() -> Vec3,
+    ) -> Option<Vec3> {
         let frame = Frame::new(n);
         let p_s = self.p_specular;
         let wi = if u_lobe < p_s {
@@ -195,7 +203,7 @@ impl Brdf {
             let h = frame.to_world(sample_ggx_visible_normal(wo_local, self.alpha, u));
             2.0 * wo.dot(h) * h - wo
         } else if p_s < 1.0 {
-            frame.to_world(warp::cosine_hemisphere(u))
+            frame.to_world(cosine())
         } else {
             return None;
         };
@@ -331,7 +339,8 @@ mod tests {
                 let (mut s, mut s2) = (0.0f64, 0.0f64);
                 for _ in 0..count {
                     let (wi, pdf) = if own {
-                        match brdf.sample(Vec3::Z, wo, rng.next_f32(), rng.next_2d()) {
+                        let (u_lobe, u) = (rng.next_f32(), rng.next_2d());
+                        match brdf.sample(Vec3::Z, wo, u_lobe, u, || warp::cosine_hemisphere(u)) {
                             Some(wi) => (wi, brdf.pdf(Vec3::Z, wo, wi)),
                             None => continue,
                         }

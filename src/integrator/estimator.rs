@@ -430,7 +430,9 @@ impl Estimator<'_> {
         counts: &mut SampleCounts,
     ) -> Option<(Vec3, Option<Hit>)> {
         let (lobe, direction) = cs.bsdf_lobe_and_direction(j);
-        let wi = x.brdf.sample(x.ns, x.wo, lobe, direction)?;
+        let wi = x
+            .brdf
+            .sample(x.ns, x.wo, lobe, direction, || cs.bsdf_cosine_direction(j))?;
         if x.ng.dot(wi) <= 0.0 {
             return None;
         }
@@ -566,7 +568,7 @@ impl Estimator<'_> {
                     warp::UNIFORM_HEMISPHERE_PDF,
                 )
             } else {
-                let w = warp::cosine_hemisphere(cs.bsdf_direction(j));
+                let w = cs.bsdf_cosine_direction(j);
                 (w, warp::cosine_hemisphere_pdf(w.z))
             };
             let wi = frame.to_world(local);

@@ -6,3 +6,5 @@ pub mod prefetch;
 pub mod rng;
 pub mod sampler;
 pub mod warp;
+#[cfg(target_arch = "x86_64")]
+mod warp_avx2;

@@ -19,6 +19,8 @@ pub(super) struct Drawn {
     pub(super) light_point: [f32; 2],
     pub(super) bsdf_lobe: f32,
     pub(super) bsdf_direction: [f32; 2],
+    /// `bsdf_direction` warped to the cosine-weighted hemisphere.
+    pub(super) bsdf_cosine: glam::Vec3,
 }
 
 /// Draws the numbers of `samples` together where the module header says, else leaves them to
@@ -52,13 +54,16 @@ fn draw_independent(samples: &mut [CameraSample]) {
     let seeds = INDEPENDENT.map(|dim| std::array::from_fn(|i| lane(i).pixel.seeds[dim as usize]));
     let [jitter, choice, point, lobe, direction] = independent_hashes(index, &seeds);
     let two = |h: u64| [to_f32((h >> 32) as u32), to_f32(h as u32)];
+    let direction = direction.map(two);
+    let cosine = cosine_lanes(&direction.map(|d| d[0]), &direction.map(|d| d[1]));
     for (i, cs) in samples.iter_mut().enumerate() {
         cs.drawn = Some(Drawn {
             jitter: two(jitter[i]),
             light_choice: (choice[i] >> 11) as f64 * TO_UNIT_53,
             light_point: two(point[i]),
             bsdf_lobe: to_f32((lobe[i] >> 32) as u32),
-            bsdf_direction: two(direction[i]),
+            bsdf_direction: direction[i],
+            bsdf_cosine: cosine[i],
         });
     }
 }
@@ -102,6 +107,7 @@ fn draw_sobol(samples: &mut [CameraSample]) {
     // SAFETY: `draw_together` draws only where the sampler's `avx2` is true, which it is only
     // when the CPU reported AVX2.
     let drawn = unsafe { draw(index, &seeds) };
+    let cosine = cosine_lanes(&drawn.units[4], &drawn.units[5]);
     for (lane, cs) in samples.iter_mut().enumerate() {
         let seed = cs.pixel.seeds[LIGHT_POINT as usize];
         let at = |c: &[f32; LANES]| c[lane];
@@ -111,6 +117,7 @@ fn draw_sobol(samples: &mut [CameraSample]) {
             light_point: [at(&drawn.units[2]), at(&drawn.units[3])],
             bsdf_lobe: at(&drawn.units[6]),
             bsdf_direction: [at(&drawn.units[4]), at(&drawn.units[5])],
+            bsdf_cosine: cosine[lane],
         });
     }
 }
@@ -152,5 +159,19 @@ unsafe fn draw(index: [u32; LANES], seeds: &[SeedLanes; 3]) -> Lanes {
 
 #[cfg(not(target_arch = "x86_64"))]
 unsafe fn draw(_: [u32; LANES], _: &[SeedLanes; 3]) -> Lanes {
+    unreachable!("no AVX2 off x86-64")
+}
+
+/// The lanes' BSDF direction numbers (u0, u1) warped to the cosine-weighted hemisphere.
+#[cfg(target_arch = "x86_64")]
+fn cosine_lanes(u0: &[f32; LANES], u1: &[f32; LANES]) -> [glam::Vec3; LANES] {
+    // SAFETY: `draw_together` draws only where the sampler's `avx2` is true, which it is only
+    // when the CPU reported AVX2.
+    let d = unsafe { crate::sampling::warp_avx2::cosine_hemisphere(u0, u1) };
+    std::array::from_fn(|i| glam::Vec3::new(d.x[i], d.y[i], d.z[i]))
+}
+
+#[cfg(not(target_arch = "x86_64"))]
+fn cosine_lanes(_: &[f32; LANES], _: &[f32; LANES]) -> [glam::Vec3; LANES] {
     unreachable!("no AVX2 off x86-64")
 }

@@ -369,6 +369,18 @@ impl CameraSample<'_> {
         (self.bsdf_lobe(j), self.bsdf_direction(j))
     }
 
+    /// [`bsdf_direction`](Self::bsdf_direction) warped to the cosine-weighted hemisphere
+    /// (`warp::cosine_hemisphere`), made with the packet's numbers where they were drawn
+    /// together.
+    #[inline]
+    pub fn bsdf_cosine_direction(&self, j: u32) -> glam::Vec3 {
+        if let Some(d) = &self.drawn {
+            debug_assert_eq!(j, 0, "drawn numbers are slot 0's");
+            return d.bsdf_cosine;
+        }
+        crate::sampling::warp::cosine_hemisphere(self.bsdf_direction(j))
+    }
+
     /// The 2D number that gives BSDF (or hemisphere) slot j's direction.
     #[inline]
     pub fn bsdf_direction(&self, j: u32) -> [f32; 2] {
