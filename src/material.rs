@@ -11,7 +11,7 @@ use glam::Vec3;
 use std::f32::consts::{FRAC_1_PI, PI};
 
 use crate::color::luminance;
-use crate::sampling::warp::Frame;
+use crate::sampling::warp::{self, Frame};
 use crate::scene::Material;
 
 /// GGX α below this is clamped: a perfect mirror cannot be reached by light sampling.
@@ -203,7 +203,13 @@ impl Brdf {
             let h = frame.to_world(sample_ggx_visible_normal(wo_local, self.alpha, u));
             2.0 * wo.dot(h) * h - wo
         } else if p_s < 1.0 {
-            frame.to_world(cosine())
+            let local = cosine();
+            debug_assert_eq!(
+                local,
+                warp::cosine_hemisphere(u),
+                "the diffuse lobe's warp of u"
+            );
+            frame.to_world(local)
         } else {
             return None;
         };

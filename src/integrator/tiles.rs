@@ -286,9 +286,9 @@ mod tests {
     use crate::select::SelectorKind;
 
     /// Rays traced in packets (a pixel's eight at a time, or several pixels' when spp < 8),
-    /// with their light choices prefetched (power selector) and their Sobol numbers drawn
-    /// together, give every pixel exactly the sums of tracing and shading its samples one at a
-    /// time, each making its own numbers.
+    /// with their light choices prefetched (power selector) and their independent or Sobol
+    /// numbers drawn together, give every pixel exactly the sums of tracing and shading its
+    /// samples one at a time, each making its own numbers.
     #[test]
     fn packets_give_the_pixels_of_one_ray_at_a_time() {
         for kind in [SelectorKind::Bvh, SelectorKind::Power] {

@@ -7,10 +7,13 @@ use rand_pcg::Pcg32;
 
 /// SplitMix64's finaliser: a bijective 64-bit mix (Steele, Lea & Flood 2014).
 pub(crate) fn mix64(mut z: u64) -> u64 {
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z = (z ^ (z >> 30)).wrapping_mul(MIX64_MULTIPLIERS[0]);
+    z = (z ^ (z >> 27)).wrapping_mul(MIX64_MULTIPLIERS[1]);
     z ^ (z >> 31)
 }
+
+/// The two multipliers of [`mix64`].
+pub(crate) const MIX64_MULTIPLIERS: [u64; 2] = [0xbf58_476d_1ce4_e5b9, 0x94d0_49bb_1331_11eb];
 
 /// The seed of sub-render `index` (a pass, a repeat) of a run with base seed `seed`: distinct
 /// for distinct indices, so the sub-renders draw independent streams.

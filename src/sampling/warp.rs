@@ -60,16 +60,19 @@ fn concentric_disk(u: [f32; 2]) -> (f32, f32) {
 #[inline]
 fn cos_sin_within_quarter(phi: f32) -> (f32, f32) {
     let x2 = phi * phi;
-    let cos = 1.0
-        - x2 * (1.0 / 2.0)
-            * (1.0 - x2 * (1.0 / 12.0) * (1.0 - x2 * (1.0 / 30.0) * (1.0 - x2 * (1.0 / 56.0))));
-    let sin = phi
-        * (1.0
-            - x2 * (1.0 / 6.0)
-                * (1.0
-                    - x2 * (1.0 / 20.0) * (1.0 - x2 * (1.0 / 42.0) * (1.0 - x2 * (1.0 / 72.0)))));
+    let step = |c: f32, rest: f32| 1.0 - x2 * c * rest;
+    let [c0, c1, c2, c3] = COS_STEPS;
+    let [s0, s1, s2, s3] = SIN_STEPS;
+    let cos = step(c0, step(c1, step(c2, step(c3, 1.0))));
+    let sin = phi * step(s0, step(s1, step(s2, step(s3, 1.0))));
     (cos, sin)
 }
+
+/// The Horner steps of cos φ = 1 − φ²/2·(1 − φ²/12·(1 − φ²/30·(1 − φ²/56))): each
+/// 1 − φ²·c·(rest), innermost last (the innermost rest is 1, an exact product).
+pub(crate) const COS_STEPS: [f32; 4] = [1.0 / 2.0, 1.0 / 12.0, 1.0 / 30.0, 1.0 / 56.0];
+/// The same for sin φ = φ·(1 − φ²/6·(1 − φ²/20·(1 − φ²/42·(1 − φ²/72)))).
+pub(crate) const SIN_STEPS: [f32; 4] = [1.0 / 6.0, 1.0 / 20.0, 1.0 / 42.0, 1.0 / 72.0];
 
 /// An orthonormal frame around a unit vector n (Duff et al. 2017, branchless).
 #[derive(Clone, Copy, Debug)]

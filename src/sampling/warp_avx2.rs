@@ -5,6 +5,8 @@
 use std::arch::x86_64::*;
 use std::f32::consts::PI;
 
+use super::warp::{COS_STEPS, SIN_STEPS};
+
 /// Eight directions, coordinate by coordinate.
 pub struct Directions {
     pub x: [f32; 8],
@@ -41,7 +43,8 @@ pub unsafe fn cosine_hemisphere(u0: &[f32; 8], u1: &[f32; 8]) -> Directions {
         _mm256_blendv_ps(y, zero, centre),
     );
     let rest = _mm256_sub_ps(_mm256_sub_ps(one, _mm256_mul_ps(x, x)), _mm256_mul_ps(y, y));
-    // f32::max(v, 0) gives 0 for NaN, as maxps does with 0 as its second operand.
+    // f32::max(v, 0) gives 0 for NaN, as maxps does with 0 as its second operand; v is never
+    // −0 (x − x is +0), so the two agree on signed zeros too.
     let z = _mm256_sqrt_ps(_mm256_max_ps(rest, zero));
     let mut out = Directions {
         x: [0.0; 8],
@@ -54,38 +57,20 @@ pub unsafe fn cosine_hemisphere(u0: &[f32; 8], u1: &[f32; 8]) -> Directions {
     out
 }
 
-/// `warp::cos_sin_within_quarter` in each lane.
+/// `warp::cos_sin_within_quarter` in each lane, by its Horner steps (`COS_STEPS`, `SIN_STEPS`).
 #[target_feature(enable = "avx2")]
 #[inline]
 unsafe fn cos_sin_within_quarter(phi: __m256) -> (__m256, __m256) {
     let splat = _mm256_set1_ps;
     let one = splat(1.0);
-    // 1 − x²·c · (rest): each factor as the scalar Horner form groups it.
-    let step =
-        |x2, c: f32, rest| _mm256_sub_ps(one, _mm256_mul_ps(_mm256_mul_ps(x2, splat(c)), rest));
     let x2 = _mm256_mul_ps(phi, phi);
-    let cos = step(
-        x2,
-        1.0 / 2.0,
-        step(
-            x2,
-            1.0 / 12.0,
-            step(x2, 1.0 / 30.0, step(x2, 1.0 / 56.0, one)),
-        ),
-    );
-    let sin = _mm256_mul_ps(
-        phi,
-        step(
-            x2,
-            1.0 / 6.0,
-            step(
-                x2,
-                1.0 / 20.0,
-                step(x2, 1.0 / 42.0, step(x2, 1.0 / 72.0, one)),
-            ),
-        ),
-    );
-    (cos, sin)
+    // 1 − x²·c·rest, over the steps innermost first.
+    let horner = |steps: [f32; 4]| {
+        steps.iter().rev().fold(one, |rest, &c| {
+            _mm256_sub_ps(one, _mm256_mul_ps(_mm256_mul_ps(x2, splat(c)), rest))
+        })
+    };
+    (horner(COS_STEPS), _mm256_mul_ps(phi, horner(SIN_STEPS)))
 }
 
 #[cfg(test)]

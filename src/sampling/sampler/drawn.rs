@@ -1,15 +1,22 @@
 //! A packet's numbers drawn together. Where each camera sample has one light slot with one
 //! point (K = N = 1) and the CPU has AVX2, the numbers of a packet's camera samples (up to
 //! eight) are made in AVX2 lanes when the packet is formed, bit for bit the numbers each would
-//! make alone; each `CameraSample` then hands out its own. Sobol points come from `sobol_avx2`;
-//! independent numbers from `hash_avx2`, which also mixes each sample's index once for all its
-//! dimensions instead of once per dimension.
+//! make alone, and each `CameraSample` then hands out its own: Sobol points from `sobol_avx2`
+//! (the 21 low bits appended to the light choice still hashed one sample at a time),
+//! independent numbers from `hash_avx2` (each sample's index mixed once for all its dimensions
+//! instead of once per dimension), and the BSDF direction's cosine-hemisphere warp from
+//! `warp_avx2`.
 
-use super::sobol::{GroupSeeds, SeedLanes};
+use glam::Vec3;
+
 use super::*;
 
 /// The lanes of a draw.
 const LANES: usize = 8;
+const _: () = assert!(
+    crate::accel::PACKET <= LANES,
+    "a packet's samples fit one draw"
+);
 
 /// One camera sample's numbers, drawn ahead (see the module header).
 #[derive(Clone, Copy, Debug)]
@@ -20,12 +27,12 @@ pub(super) struct Drawn {
     pub(super) bsdf_lobe: f32,
     pub(super) bsdf_direction: [f32; 2],
     /// `bsdf_direction` warped to the cosine-weighted hemisphere.
-    pub(super) bsdf_cosine: glam::Vec3,
+    pub(super) bsdf_cosine: Vec3,
 }
 
 /// Draws the numbers of `samples` together where the module header says, else leaves them to
-/// be made one at a time, as they are made for more than eight samples, for the other sequences
-/// or for Sobol points at indices from 2^32 on.
+/// be made one at a time, as they are for more than eight samples, for the other sequences and
+/// for Sobol points at indices from 2^32 on.
 pub fn draw_together(samples: &mut [CameraSample]) {
     let Some(last) = samples.last() else {
         return;
@@ -34,144 +41,169 @@ pub fn draw_together(samples: &mut [CameraSample]) {
     if samples.len() > LANES || !(sm.k == 1 && sm.n == 1 && sm.avx2) {
         return;
     }
-    match sm.kind {
-        SamplerKind::Sobol => draw_sobol(samples),
-        SamplerKind::Independent => draw_independent(samples),
-        _ => {}
-    }
-}
-
-/// The dimensions an independent camera sample reads (one hash each): the pixel jitter, the
-/// light choice, the light point, the BSDF lobe and the BSDF direction.
-const INDEPENDENT: [u64; 5] = [PIXEL, LIGHT_CHOICE, LIGHT_POINT, BSDF_LOBE, BSDF_DIRECTION];
-
-/// `draw_together` for the independent sampler: the numbers `get_1d`, `get_2d` and
-/// `light_choice` make from the same hashes.
-fn draw_independent(samples: &mut [CameraSample]) {
-    // Spare lanes repeat the last sample.
-    let lane = |i: usize| &samples[i.min(samples.len() - 1)];
-    let index: [u64; LANES] = std::array::from_fn(|i| lane(i).pixel.absolute(1, lane(i).s, 0));
-    let seeds = INDEPENDENT.map(|dim| std::array::from_fn(|i| lane(i).pixel.seeds[dim as usize]));
-    let [jitter, choice, point, lobe, direction] = independent_hashes(index, &seeds);
-    let two = |h: u64| [to_f32((h >> 32) as u32), to_f32(h as u32)];
-    let direction = direction.map(two);
-    let cosine = cosine_lanes(&direction.map(|d| d[0]), &direction.map(|d| d[1]));
-    for (i, cs) in samples.iter_mut().enumerate() {
-        cs.drawn = Some(Drawn {
-            jitter: two(jitter[i]),
-            light_choice: (choice[i] >> 11) as f64 * TO_UNIT_53,
-            light_point: two(point[i]),
-            bsdf_lobe: to_f32((lobe[i] >> 32) as u32),
-            bsdf_direction: direction[i],
-            bsdf_cosine: cosine[i],
-        });
-    }
-}
-
-#[cfg(target_arch = "x86_64")]
-fn independent_hashes(index: [u64; LANES], seeds: &[[u64; LANES]; 5]) -> [[u64; LANES]; 5] {
-    // SAFETY: `draw_together` draws only where the sampler's `avx2` is true, which it is only
-    // when the CPU reported AVX2.
-    unsafe { super::hash_avx2::hashes(index, seeds) }
-}
-
-#[cfg(not(target_arch = "x86_64"))]
-fn independent_hashes(_: [u64; LANES], _: &[[u64; LANES]; 5]) -> [[u64; LANES]; 5] {
-    unreachable!("no AVX2 off x86-64")
-}
-
-/// `draw_together` for Sobol points.
-fn draw_sobol(samples: &mut [CameraSample]) {
-    let mut index = [0u32; LANES];
-    let mut seeds = [SeedLanes::default(); 3];
-    // Lanes of one pixel share its seeds, made once; spare lanes repeat the last sample.
-    let mut made: Option<(&PixelSampler, [GroupSeeds; 3])> = None;
-    for (lane, slot) in index.iter_mut().enumerate() {
-        let cs = &samples[lane.min(samples.len() - 1)];
-        let Ok(absolute) = u32::try_from(cs.pixel.absolute(1, cs.s, 0)) else {
-            return;
-        };
-        *slot = absolute;
-        let groups = match made {
-            Some((pixel, groups)) if std::ptr::eq(pixel, cs.pixel) => groups,
-            _ => {
-                let groups = GROUPS.map(|dim| GroupSeeds::of(cs.pixel.seeds[dim as usize]));
-                made = Some((cs.pixel, groups));
-                groups
-            }
-        };
-        for (lanes, group) in seeds.iter_mut().zip(&groups) {
-            lanes.set(lane, group);
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: the sampler's `avx2` is true only when the CPU reported AVX2 (`has_avx2_fma`).
+    unsafe {
+        match sm.kind {
+            SamplerKind::Sobol => lanes::draw_sobol(samples),
+            SamplerKind::Independent => lanes::draw_independent(samples),
+            _ => {}
         }
     }
-    // SAFETY: `draw_together` draws only where the sampler's `avx2` is true, which it is only
-    // when the CPU reported AVX2.
-    let drawn = unsafe { draw(index, &seeds) };
-    let cosine = cosine_lanes(&drawn.units[4], &drawn.units[5]);
-    for (lane, cs) in samples.iter_mut().enumerate() {
-        let seed = cs.pixel.seeds[LIGHT_POINT as usize];
-        let at = |c: &[f32; LANES]| c[lane];
-        cs.drawn = Some(Drawn {
-            jitter: [at(&drawn.units[0]), at(&drawn.units[1])],
-            light_choice: with_hashed_bits(drawn.choice[lane], seed, u64::from(index[lane])),
-            light_point: [at(&drawn.units[2]), at(&drawn.units[3])],
-            bsdf_lobe: at(&drawn.units[6]),
-            bsdf_direction: [at(&drawn.units[4]), at(&drawn.units[5])],
-            bsdf_cosine: cosine[lane],
-        });
+}
+
+#[cfg(target_arch = "x86_64")]
+mod lanes {
+    use super::super::hash_avx2::hashes;
+    use super::super::independent::halves;
+    use super::super::sobol::{GroupSeeds, SeedLanes};
+    use super::super::sobol_avx2::{bits, load, sample_2d, sample_3d, units};
+    use super::*;
+    use crate::sampling::warp_avx2::{cosine_hemisphere, Directions};
+
+    /// The dimensions an independent camera sample reads, one hash each: the pixel jitter, the
+    /// light choice, the light point, the BSDF lobe and the BSDF direction.
+    const INDEPENDENT_DIMS: [u64; 5] =
+        [PIXEL, LIGHT_CHOICE, LIGHT_POINT, BSDF_LOBE, BSDF_DIRECTION];
+
+    /// The Sobol groups a camera sample draws from: the pixel jitter, the light's point (and its
+    /// choice, the third coordinate) and the BSDF's direction (and its lobe, the third).
+    const SOBOL_GROUPS: [u64; 3] = [PIXEL, LIGHT_POINT, BSDF_DIRECTION];
+
+    /// `draw_together` for the independent sampler: the numbers `get_1d`, `get_2d` and
+    /// `light_choice` make, from the same hashes.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn draw_independent(samples: &mut [CameraSample]) {
+        // Spare lanes repeat the last sample.
+        let lane = |i: usize| &samples[i.min(samples.len() - 1)];
+        let index: [u64; LANES] = std::array::from_fn(|i| lane(i).pixel.absolute(1, lane(i).s, 0));
+        let seeds =
+            INDEPENDENT_DIMS.map(|dim| std::array::from_fn(|i| lane(i).pixel.seeds[dim as usize]));
+        let [jitter, choice, point, lobe, direction] = hashes(index, &seeds);
+        let unit_pair = |h: u64| halves(h).map(to_f32);
+        let direction = direction.map(unit_pair);
+        let cosine = cosine_hemisphere(&direction.map(|d| d[0]), &direction.map(|d| d[1]));
+        for (i, cs) in samples.iter_mut().enumerate() {
+            cs.drawn = Some(Drawn {
+                jitter: unit_pair(jitter[i]),
+                light_choice: unit_53(choice[i]),
+                light_point: unit_pair(point[i]),
+                bsdf_lobe: to_f32(halves(lobe[i])[0]),
+                bsdf_direction: direction[i],
+                bsdf_cosine: lane_of(&cosine, i),
+            });
+        }
+    }
+
+    /// `draw_together` for Sobol points: `sample_2d` and `sample_3d` in every lane, where every
+    /// index is below 2^32.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn draw_sobol(samples: &mut [CameraSample]) {
+        let mut index = [0u32; LANES];
+        let mut seeds = [SeedLanes::default(); 3];
+        // Lanes of one pixel share its seeds, made once; spare lanes repeat the last sample.
+        let mut pixel_seeds: Option<(&PixelSampler, [GroupSeeds; 3])> = None;
+        for (lane, slot) in index.iter_mut().enumerate() {
+            let cs = &samples[lane.min(samples.len() - 1)];
+            let Ok(absolute) = u32::try_from(cs.pixel.absolute(1, cs.s, 0)) else {
+                return;
+            };
+            *slot = absolute;
+            let groups = match pixel_seeds {
+                Some((pixel, groups)) if std::ptr::eq(pixel, cs.pixel) => groups,
+                _ => {
+                    let groups =
+                        SOBOL_GROUPS.map(|dim| GroupSeeds::of(cs.pixel.seeds[dim as usize]));
+                    pixel_seeds = Some((cs.pixel, groups));
+                    groups
+                }
+            };
+            for (lanes, group) in seeds.iter_mut().zip(&groups) {
+                lanes.set(lane, group);
+            }
+        }
+        let all = load(index);
+        let [jx, jy] = sample_2d(all, &seeds[0]);
+        let [lx, ly, lz] = sample_3d(all, &seeds[1]);
+        let [bx, by, bz] = sample_3d(all, &seeds[2]);
+        let (jitter, point) = ([units(jx), units(jy)], [units(lx), units(ly)]);
+        let (lobe, direction) = (units(bz), [units(bx), units(by)]);
+        let choice = bits(lz);
+        let cosine = cosine_hemisphere(&direction[0], &direction[1]);
+        for (lane, cs) in samples.iter_mut().enumerate() {
+            let seed = cs.pixel.seeds[LIGHT_POINT as usize];
+            cs.drawn = Some(Drawn {
+                jitter: jitter.map(|c| c[lane]),
+                light_choice: with_hashed_bits(choice[lane], seed, u64::from(index[lane])),
+                light_point: point.map(|c| c[lane]),
+                bsdf_lobe: lobe[lane],
+                bsdf_direction: direction.map(|c| c[lane]),
+                bsdf_cosine: lane_of(&cosine, lane),
+            });
+        }
+    }
+
+    fn lane_of(d: &Directions, lane: usize) -> Vec3 {
+        Vec3::new(d.x[lane], d.y[lane], d.z[lane])
     }
 }
 
-/// The dimension groups a camera sample draws from: the pixel jitter, the light's point (and
-/// its choice, the third coordinate) and the BSDF's direction (and lobe, the third).
-const GROUPS: [u64; 3] = [PIXEL, LIGHT_POINT, BSDF_DIRECTION];
+#[cfg(test)]
+mod tests {
+    use super::*;
 
-/// A packet's numbers in lanes: the light choice's 32 sequence bits, and as f32 in [0, 1) the
-/// pixel jitter's two coordinates, the light point's two and the BSDF group's three.
-struct Lanes {
-    choice: [u32; LANES],
-    units: [[f32; LANES]; 7],
-}
-
-/// The numbers of the points at `index` in the groups seeded `seeds` (`GROUPS`' order).
-///
-/// # Safety
-/// The CPU must support AVX2.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-unsafe fn draw(index: [u32; LANES], seeds: &[SeedLanes; 3]) -> Lanes {
-    use super::sobol_avx2::{bits, load, sample_2d, sample_3d, units};
-    use std::arch::x86_64::*;
-    let index = load(index);
-    let [jx, jy] = sample_2d(index, &seeds[0]);
-    let [lx, ly, lz] = sample_3d(index, &seeds[1]);
-    let [bx, by, bz] = sample_3d(index, &seeds[2]);
-    let mut out = Lanes {
-        choice: [0; LANES],
-        units: [[0.0; LANES]; 7],
-    };
-    _mm256_storeu_si256(out.choice.as_mut_ptr().cast(), bits(lz));
-    for (row, c) in out.units.iter_mut().zip([jx, jy, lx, ly, bx, by, bz]) {
-        _mm256_storeu_ps(row.as_mut_ptr(), units(c));
+    /// Every number a drawn camera sample hands out has the bits the same sample makes alone:
+    /// packets of one to eight samples, of one pixel or of several, at the start of a render,
+    /// further on, and across index 2^32, where Sobol packets are left undrawn.
+    #[test]
+    fn drawn_numbers_are_the_numbers_made_one_at_a_time() {
+        if !crate::cpu::has_avx2_fma() {
+            return;
+        }
+        let numbers = |cs: &CameraSample| {
+            let (lobe, direction) = cs.bsdf_lobe_and_direction(0);
+            let mut bits = vec![cs.light_choice(0).to_bits()];
+            let f32s = [
+                cs.pixel_jitter(),
+                cs.light_point(0, 0),
+                direction,
+                cs.bsdf_direction(0),
+            ];
+            bits.extend(f32s.iter().flatten().map(|x| u64::from(x.to_bits())));
+            bits.extend([lobe, cs.bsdf_lobe(0)].map(|x| u64::from(x.to_bits())));
+            let cosine = cs.bsdf_cosine_direction(0).to_array();
+            bits.extend(cosine.map(|x| u64::from(x.to_bits())));
+            bits
+        };
+        for kind in [SamplerKind::Independent, SamplerKind::Sobol] {
+            for first in [0u64, 5, (1 << 32) - 3] {
+                let sampler = Sampler::new(kind, 11, first, 8, 1, 1);
+                let pixels: Vec<PixelSampler> = (0..8).map(|p| sampler.pixel(p)).collect();
+                for count in 1..=LANES {
+                    for per_pixel in [8, 3, 1] {
+                        // Slot i: sample i % per_pixel of pixel i / per_pixel.
+                        let slot = |i: usize| (&pixels[i / per_pixel], (i % per_pixel) as u32);
+                        let mut samples: Vec<CameraSample> = (0..count)
+                            .map(|i| slot(i).0.camera_sample(slot(i).1))
+                            .collect();
+                        draw_together(&mut samples);
+                        let beyond = (0..count).any(|i| (first + u64::from(slot(i).1)) >> 32 != 0);
+                        let undrawn = kind == SamplerKind::Sobol && beyond;
+                        for (i, cs) in samples.iter().enumerate() {
+                            let case = format!("{kind:?}, first {first}, {count} of {per_pixel}");
+                            assert_eq!(cs.drawn.is_none(), undrawn, "{case}");
+                            let alone = slot(i).0.camera_sample(slot(i).1);
+                            assert_eq!(numbers(cs), numbers(&alone), "{case}, slot {i}");
+                        }
+                    }
+                }
+            }
+        }
     }
-    out
-}
-
-#[cfg(not(target_arch = "x86_64"))]
-unsafe fn draw(_: [u32; LANES], _: &[SeedLanes; 3]) -> Lanes {
-    unreachable!("no AVX2 off x86-64")
-}
-
-/// The lanes' BSDF direction numbers (u0, u1) warped to the cosine-weighted hemisphere.
-#[cfg(target_arch = "x86_64")]
-fn cosine_lanes(u0: &[f32; LANES], u1: &[f32; LANES]) -> [glam::Vec3; LANES] {
-    // SAFETY: `draw_together` draws only where the sampler's `avx2` is true, which it is only
-    // when the CPU reported AVX2.
-    let d = unsafe { crate::sampling::warp_avx2::cosine_hemisphere(u0, u1) };
-    std::array::from_fn(|i| glam::Vec3::new(d.x[i], d.y[i], d.z[i]))
-}
-
-#[cfg(not(target_arch = "x86_64"))]
-fn cosine_lanes(_: &[f32; LANES], _: &[f32; LANES]) -> [glam::Vec3; LANES] {
-    unreachable!("no AVX2 off x86-64")
 }

@@ -4,10 +4,8 @@
 
 use std::arch::x86_64::*;
 
-/// SplitMix64's two multipliers (`rng::mix64`).
-const MIX: [u64; 2] = [0xbf58_476d_1ce4_e5b9, 0x94d0_49bb_1331_11eb];
-/// The constant `hash` adds to its value before mixing it.
-const GOLDEN: u64 = 0x9e37_79b9_7f4a_7c15;
+use super::scramble::HASH_OFFSET;
+use crate::sampling::rng::MIX64_MULTIPLIERS as MIX;
 
 /// `hash(seeds[d][lane], index[lane])` for every group d and lane: the index is mixed once and
 /// shared by the groups, as `hash` mixes it the same way for every seed.
@@ -17,8 +15,8 @@ const GOLDEN: u64 = 0x9e37_79b9_7f4a_7c15;
 #[target_feature(enable = "avx2")]
 pub unsafe fn hashes<const D: usize>(index: [u64; 8], seeds: &[[u64; 8]; D]) -> [[u64; 8]; D] {
     let half = |lanes: &[u64; 8], h: usize| _mm256_loadu_si256(lanes[4 * h..].as_ptr().cast());
-    let golden = _mm256_set1_epi64x(GOLDEN as i64);
-    let mixed = [0, 1].map(|h| mix64(_mm256_add_epi64(half(&index, h), golden)));
+    let offset = _mm256_set1_epi64x(HASH_OFFSET as i64);
+    let mixed = [0, 1].map(|h| mix64(_mm256_add_epi64(half(&index, h), offset)));
     let mut out = [[0u64; 8]; D];
     for (row, seed) in out.iter_mut().zip(seeds) {
         for (h, &m) in mixed.iter().enumerate() {

@@ -32,8 +32,9 @@
 //! stratify each render's own points (index s·… relative to the render, over the count in the
 //! last column), with permutations seeded by F as well: every pass is its own stratified set.
 //!
-//! Where the sampler is independent or Sobol with K = N = 1, a packet's camera samples have
-//! their numbers drawn together in AVX2 lanes (`drawn`), the same bits as one at a time.
+//! Where the sampler is independent or Sobol with K = N = 1, on a CPU with AVX2, a packet's
+//! camera samples have their numbers drawn together in AVX2 lanes (`drawn`), the same bits as
+//! one at a time.
 //!
 //! The 32-bit sequences give 24-bit f32 coordinates; the light choice, which may pick among
 //! millions of lights, appends 21 hashed random bits to the sequence's 32 to fill an f64
@@ -103,7 +104,8 @@ pub struct Sampler {
     spp: u64,
     k: u64,
     n: u64,
-    /// Whether the CPU has AVX2 (a packet's numbers are then drawn together: `drawn`).
+    /// Whether the CPU has AVX2 and FMA (`has_avx2_fma`; a packet's numbers are then drawn
+    /// together: `drawn`).
     avx2: bool,
 }
 
@@ -258,7 +260,8 @@ impl PixelSampler {
 pub struct CameraSample<'a> {
     pixel: &'a PixelSampler,
     s: u64,
-    /// Its numbers, where they were drawn with its packet's ([`draw_together`]; then K = N = 1).
+    /// Its numbers, where they were drawn with its packet's ([`draw_together`]; then K = N = 1,
+    /// and only slot 0 exists).
     drawn: Option<Drawn>,
 }
 
@@ -269,6 +272,13 @@ const TO_UNIT_53: f64 = 1.0 / 9_007_199_254_740_992.0;
 #[inline]
 fn to_f32(x: u32) -> f32 {
     (x >> 8) as f32 * (1.0 / 16_777_216.0)
+}
+
+/// A fraction in [0, 1) with the 53 high bits of a 64-bit hash (the independent sampler's light
+/// choice).
+#[inline(always)]
+fn unit_53(h: u64) -> f64 {
+    (h >> 11) as f64 * TO_UNIT_53
 }
 
 /// A sequence's 32-bit coordinate `high` of point `index` (group seed `seed`) extended to a
@@ -292,16 +302,14 @@ impl CameraSample<'_> {
     /// The number that chooses light slot k's light, in [0, 1) with 53 bits.
     #[inline(always)]
     pub fn light_choice(&self, k: u32) -> f64 {
-        if let Some(d) = &self.drawn {
-            debug_assert_eq!(k, 0, "drawn numbers are slot 0's");
+        if let (Some(d), 0) = (&self.drawn, k) {
             return d.light_choice;
         }
         let sm = &self.pixel.sampler;
         if sm.kind == SamplerKind::Independent {
-            // All 53 bits from one hash.
             let index = self.pixel.absolute(sm.k, self.s, k as u64);
             let seed = self.pixel.seeds[LIGHT_CHOICE as usize];
-            return (hash(seed, index) >> 11) as f64 * TO_UNIT_53;
+            return unit_53(hash(seed, index));
         }
         if sm.kind == SamplerKind::Sobol && sm.n == 1 {
             // The third coordinate of the point on the light (see the module doc), built from
@@ -324,8 +332,7 @@ impl CameraSample<'_> {
     /// The 2D number that places point n on light slot k's light.
     #[inline]
     pub fn light_point(&self, k: u32, n: u32) -> [f32; 2] {
-        if let Some(d) = &self.drawn {
-            debug_assert_eq!((k, n), (0, 0), "drawn numbers are slot 0's");
+        if let (Some(d), 0, 0) = (&self.drawn, k, n) {
             return d.light_point;
         }
         let sm = &self.pixel.sampler;
@@ -337,8 +344,7 @@ impl CameraSample<'_> {
     /// The number that chooses BSDF slot j's lobe.
     #[inline]
     pub fn bsdf_lobe(&self, j: u32) -> f32 {
-        if let Some(d) = &self.drawn {
-            debug_assert_eq!(j, 0, "drawn numbers are slot 0's");
+        if let (Some(d), 0) = (&self.drawn, j) {
             return d.bsdf_lobe;
         }
         let sm = &self.pixel.sampler;
@@ -355,8 +361,7 @@ impl CameraSample<'_> {
     /// together (the same numbers; Sobol's one 3D point is then shuffled once).
     #[inline]
     pub fn bsdf_lobe_and_direction(&self, j: u32) -> (f32, [f32; 2]) {
-        if let Some(d) = &self.drawn {
-            debug_assert_eq!(j, 0, "drawn numbers are slot 0's");
+        if let (Some(d), 0) = (&self.drawn, j) {
             return (d.bsdf_lobe, d.bsdf_direction);
         }
         let sm = &self.pixel.sampler;
@@ -374,8 +379,7 @@ impl CameraSample<'_> {
     /// together.
     #[inline]
     pub fn bsdf_cosine_direction(&self, j: u32) -> glam::Vec3 {
-        if let Some(d) = &self.drawn {
-            debug_assert_eq!(j, 0, "drawn numbers are slot 0's");
+        if let (Some(d), 0) = (&self.drawn, j) {
             return d.bsdf_cosine;
         }
         crate::sampling::warp::cosine_hemisphere(self.bsdf_direction(j))
@@ -384,8 +388,7 @@ impl CameraSample<'_> {
     /// The 2D number that gives BSDF (or hemisphere) slot j's direction.
     #[inline]
     pub fn bsdf_direction(&self, j: u32) -> [f32; 2] {
-        if let Some(d) = &self.drawn {
-            debug_assert_eq!(j, 0, "drawn numbers are slot 0's");
+        if let (Some(d), 0) = (&self.drawn, j) {
             return d.bsdf_direction;
         }
         let sm = &self.pixel.sampler;

@@ -6,8 +6,11 @@ use crate::sampling::rng::mix64;
 /// `h(seed, value)`: 64 well-mixed bits, different for every (seed, value) pair in practice.
 #[inline]
 pub fn hash(seed: u64, value: u64) -> u64 {
-    mix64(seed ^ mix64(value.wrapping_add(0x9e37_79b9_7f4a_7c15)))
+    mix64(seed ^ mix64(value.wrapping_add(HASH_OFFSET)))
 }
+
+/// What [`hash`] adds to its value before mixing it.
+pub const HASH_OFFSET: u64 = 0x9e37_79b9_7f4a_7c15;
 
 /// Seed number `n` derived from a well-mixed `seed`: one SplitMix64 step (Steele, Lea & Flood
 /// 2014), cheaper than `hash` for small constant n.

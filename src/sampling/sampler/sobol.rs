@@ -80,10 +80,10 @@ const fn reversed_tables(dim: usize) -> [[u32; 256]; 4] {
 pub(super) static DIM1_REVERSED: [[u32; 256]; 4] = reversed_tables(1);
 pub(super) static DIM2_REVERSED: [[u32; 256]; 4] = reversed_tables(2);
 
-/// The 32-bit scrambling seeds the functions below derive from a group's 64-bit seed, for
-/// points below index 2^32: the index shuffle's, the first coordinate's and the second and
-/// third coordinates' (two SplitMix64 steps); made once per pixel and group where a packet's
-/// points are drawn together (`sobol_avx2`), rather than once per point.
+/// The 32-bit scrambling seeds that `sample_2d`, `sample_3d` and `third` derive from a group's
+/// 64-bit seed for points below index 2^32: the index shuffle's, the first coordinate's and the
+/// second and third coordinates' (two SplitMix64 steps). Where a packet's points are drawn
+/// together (`drawn`, `sobol_avx2`) they are made once per pixel and group, not once per point.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct GroupSeeds {
     pub(super) shuffle: u32,
@@ -174,7 +174,7 @@ static UNIT_OF_BYTE: [[f32; 256]; 3] = {
 
 impl Reversed {
     /// The coordinate's bits in reverse order, as the scrambling leaves them.
-    #[cfg(test)]
+    #[cfg(all(test, target_arch = "x86_64"))]
     pub(super) fn word(self) -> u32 {
         self.0
     }

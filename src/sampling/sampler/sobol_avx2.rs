@@ -53,8 +53,10 @@ unsafe fn shuffled(index: __m256i, seeds: &SeedLanes) -> __m256i {
 /// The CPU must support AVX2.
 #[target_feature(enable = "avx2")]
 #[inline]
-pub unsafe fn bits(reversed: __m256i) -> __m256i {
-    reverse_bits(reversed)
+pub unsafe fn bits(reversed: __m256i) -> [u32; 8] {
+    let mut out = [0u32; 8];
+    _mm256_storeu_si256(out.as_mut_ptr().cast(), reverse_bits(reversed));
+    out
 }
 
 /// The f32 in [0, 1) of each reversed coordinate: `Reversed::unit` in each lane, i.e. the top
@@ -64,9 +66,14 @@ pub unsafe fn bits(reversed: __m256i) -> __m256i {
 /// The CPU must support AVX2.
 #[target_feature(enable = "avx2")]
 #[inline]
-pub unsafe fn units(reversed: __m256i) -> __m256 {
+pub unsafe fn units(reversed: __m256i) -> [f32; 8] {
     let top = _mm256_cvtepi32_ps(_mm256_srli_epi32::<8>(reverse_bits(reversed)));
-    _mm256_mul_ps(top, _mm256_set1_ps(1.0 / 16_777_216.0))
+    let mut out = [0f32; 8];
+    _mm256_storeu_ps(
+        out.as_mut_ptr(),
+        _mm256_mul_ps(top, _mm256_set1_ps(1.0 / 16_777_216.0)),
+    );
+    out
 }
 
 /// Eight lanes from memory.
@@ -180,12 +187,11 @@ mod tests {
             // SAFETY: the CPU has AVX2 (checked above).
             let (points, units, bits) = unsafe {
                 let points = sample_3d(load(index), &seeds);
-                let units = points.map(|c| {
-                    let mut out = [0f32; 8];
-                    _mm256_storeu_ps(out.as_mut_ptr(), units(c));
-                    out
-                });
-                (points.map(words), units, points.map(|c| words(bits(c))))
+                (
+                    points.map(words),
+                    points.map(|c| units(c)),
+                    points.map(|c| bits(c)),
+                )
             };
             for lane in 0..8 {
                 let scalar = scalar_3d(u64::from(index[lane]), seeds64[lane]);
