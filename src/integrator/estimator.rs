@@ -429,10 +429,10 @@ impl Estimator<'_> {
         cs: &CameraSample,
         counts: &mut SampleCounts,
     ) -> Option<(Vec3, Option<Hit>)> {
-        let (lobe, direction) = cs.bsdf_lobe_and_direction(j);
+        let u = cs.bsdf_numbers(j);
         let wi = x
             .brdf
-            .sample(x.ns, x.wo, lobe, direction, || cs.bsdf_cosine_direction(j))?;
+            .sample(x.ns, x.wo, u.lobe, u.direction, || u.cosine_direction())?;
         if x.ng.dot(wi) <= 0.0 {
             return None;
         }

@@ -167,7 +167,8 @@ mod tests {
             return;
         }
         let numbers = |cs: &CameraSample| {
-            let (lobe, direction) = cs.bsdf_lobe_and_direction(0);
+            let both = cs.bsdf_numbers(0);
+            let (lobe, direction) = (both.lobe, both.direction);
             let mut bits = vec![cs.light_choice(0).to_bits()];
             let f32s = [
                 cs.pixel_jitter(),
@@ -177,8 +178,9 @@ mod tests {
             ];
             bits.extend(f32s.iter().flatten().map(|x| u64::from(x.to_bits())));
             bits.extend([lobe, cs.bsdf_lobe(0)].map(|x| u64::from(x.to_bits())));
-            let cosine = cs.bsdf_cosine_direction(0).to_array();
-            bits.extend(cosine.map(|x| u64::from(x.to_bits())));
+            for cosine in [cs.bsdf_cosine_direction(0), both.cosine_direction()] {
+                bits.extend(cosine.to_array().map(|x| u64::from(x.to_bits())));
+            }
             bits
         };
         for kind in [SamplerKind::Independent, SamplerKind::Sobol] {

@@ -255,6 +255,27 @@ impl PixelSampler {
     }
 }
 
+/// BSDF slot j's numbers ([`CameraSample::bsdf_numbers`]).
+#[derive(Clone, Copy, Debug)]
+pub struct BsdfNumbers {
+    /// Chooses the lobe.
+    pub lobe: f32,
+    /// Places the direction within the lobe.
+    pub direction: [f32; 2],
+    /// `direction` warped to the cosine-weighted hemisphere, where the packet's numbers were
+    /// drawn together.
+    drawn_cosine: Option<glam::Vec3>,
+}
+
+impl BsdfNumbers {
+    /// `direction` warped to the cosine-weighted hemisphere (`warp::cosine_hemisphere`).
+    #[inline]
+    pub fn cosine_direction(&self) -> glam::Vec3 {
+        self.drawn_cosine
+            .unwrap_or_else(|| crate::sampling::warp::cosine_hemisphere(self.direction))
+    }
+}
+
 /// The numbers of one camera sample, by use (see the layout in the module doc).
 #[derive(Clone, Copy)]
 pub struct CameraSample<'a> {
@@ -358,20 +379,31 @@ impl CameraSample<'_> {
     }
 
     /// [`bsdf_lobe`](Self::bsdf_lobe) and [`bsdf_direction`](Self::bsdf_direction) of slot j
-    /// together (the same numbers; Sobol's one 3D point is then shuffled once).
+    /// together (the same numbers; Sobol's one 3D point is then shuffled once), with the
+    /// direction's cosine-hemisphere warp where the packet made it.
     #[inline]
-    pub fn bsdf_lobe_and_direction(&self, j: u32) -> (f32, [f32; 2]) {
+    pub fn bsdf_numbers(&self, j: u32) -> BsdfNumbers {
         if let (Some(d), 0) = (&self.drawn, j) {
-            return (d.bsdf_lobe, d.bsdf_direction);
+            return BsdfNumbers {
+                lobe: d.bsdf_lobe,
+                direction: d.bsdf_direction,
+                drawn_cosine: Some(d.bsdf_cosine),
+            };
         }
         let sm = &self.pixel.sampler;
-        if sm.kind == SamplerKind::Sobol {
+        let (lobe, direction) = if sm.kind == SamplerKind::Sobol {
             let index = self.pixel.absolute(sm.k * sm.n, self.s, j as u64);
             let seed = self.pixel.seeds[BSDF_DIRECTION as usize];
             let [x, y, lobe] = sobol::sample_3d(index, seed).map(Reversed::unit);
-            return (lobe, [x, y]);
+            (lobe, [x, y])
+        } else {
+            (self.bsdf_lobe(j), self.bsdf_direction(j))
+        };
+        BsdfNumbers {
+            lobe,
+            direction,
+            drawn_cosine: None,
         }
-        (self.bsdf_lobe(j), self.bsdf_direction(j))
     }
 
     /// [`bsdf_direction`](Self::bsdf_direction) warped to the cosine-weighted hemisphere

@@ -273,7 +273,9 @@ fn sobol_draws_the_light_choice_with_its_point_and_the_lobe_with_its_direction()
             [x, y, c.light_choice(0)]
         });
         let bsdf = first_samples(&px, 1 << m, |c| {
-            let (lobe, direction) = c.bsdf_lobe_and_direction(0);
+            let BsdfNumbers {
+                lobe, direction, ..
+            } = c.bsdf_numbers(0);
             let [x, y] = f(direction);
             [x, y, f64::from(lobe)]
         });
@@ -293,7 +295,7 @@ fn sobol_draws_the_light_choice_with_its_point_and_the_lobe_with_its_direction()
 }
 
 #[test]
-fn the_bsdf_lobe_and_direction_drawn_together_are_the_ones_drawn_apart() {
+fn the_bsdf_lobe_and_direction_made_together_are_the_ones_made_apart() {
     for kind in KINDS {
         for (k, n) in [(1, 1), (2, 3)] {
             let sampler = Sampler::new(kind, 5, 0, 4, k, n);
@@ -302,8 +304,9 @@ fn the_bsdf_lobe_and_direction_drawn_together_are_the_ones_drawn_apart() {
                 for s in 0..4 {
                     let cs = px.camera_sample(s);
                     for j in 0..k * n {
+                        let both = cs.bsdf_numbers(j);
                         assert_eq!(
-                            cs.bsdf_lobe_and_direction(j),
+                            (both.lobe, both.direction),
                             (cs.bsdf_lobe(j), cs.bsdf_direction(j)),
                             "{kind:?}, K × N = {k} × {n}, pixel {pixel}, sample {s}, slot {j}"
                         );
