@@ -97,11 +97,29 @@ impl GroupSeeds {
     pub(super) fn of(seed: u64) -> GroupSeeds {
         GroupSeeds {
             shuffle: seed as u32,
-            first: (seed >> 32) as u32,
-            second: subseed(seed, 0) as u32,
-            third: subseed(seed, 1) as u32,
+            first: first_seed(seed),
+            second: second_seed(seed),
+            third: third_seed(seed),
         }
     }
+}
+
+/// The seed that scrambles a group's first coordinate (van der Corput).
+#[inline(always)]
+fn first_seed(seed: u64) -> u32 {
+    (seed >> 32) as u32
+}
+
+/// The seed that scrambles a group's second coordinate (Sobol dimension 1).
+#[inline(always)]
+fn second_seed(seed: u64) -> u32 {
+    subseed(seed, 0) as u32
+}
+
+/// The seed that scrambles a group's third coordinate (Sobol dimension 2).
+#[inline(always)]
+fn third_seed(seed: u64) -> u32 {
+    subseed(seed, 1) as u32
 }
 
 /// Eight groups' seeds, one a lane: [`GroupSeeds`] field by field.
@@ -216,7 +234,7 @@ fn van_der_corput(reversed: u32, seed: u32) -> Reversed {
 #[inline]
 pub fn sample_1d(index: u64, seed: u64) -> Reversed {
     let (reversed, s) = shuffled_reversed(index, seed);
-    van_der_corput(reversed, (s >> 32) as u32)
+    van_der_corput(reversed, first_seed(s))
 }
 
 /// The first two coordinates of point `index` of a group (`seed` well mixed).
@@ -224,8 +242,8 @@ pub fn sample_1d(index: u64, seed: u64) -> Reversed {
 pub fn sample_2d(index: u64, seed: u64) -> [Reversed; 2] {
     let (reversed, s) = shuffled_reversed(index, seed);
     [
-        van_der_corput(reversed, (s >> 32) as u32),
-        scrambled(&DIM1_REVERSED, reversed, subseed(s, 0) as u32),
+        van_der_corput(reversed, first_seed(s)),
+        scrambled(&DIM1_REVERSED, reversed, second_seed(s)),
     ]
 }
 
@@ -235,9 +253,9 @@ pub fn sample_2d(index: u64, seed: u64) -> [Reversed; 2] {
 pub fn sample_3d(index: u64, seed: u64) -> [Reversed; 3] {
     let (reversed, s) = shuffled_reversed(index, seed);
     [
-        van_der_corput(reversed, (s >> 32) as u32),
-        scrambled(&DIM1_REVERSED, reversed, subseed(s, 0) as u32),
-        scrambled(&DIM2_REVERSED, reversed, subseed(s, 1) as u32),
+        van_der_corput(reversed, first_seed(s)),
+        scrambled(&DIM1_REVERSED, reversed, second_seed(s)),
+        scrambled(&DIM2_REVERSED, reversed, third_seed(s)),
     ]
 }
 
@@ -245,7 +263,7 @@ pub fn sample_3d(index: u64, seed: u64) -> [Reversed; 3] {
 #[inline]
 pub fn third(index: u64, seed: u64) -> Reversed {
     let (reversed, s) = shuffled_reversed(index, seed);
-    scrambled(&DIM2_REVERSED, reversed, subseed(s, 1) as u32)
+    scrambled(&DIM2_REVERSED, reversed, third_seed(s))
 }
 
 #[cfg(test)]

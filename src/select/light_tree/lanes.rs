@@ -230,10 +230,11 @@ fn weighted(cos_sharp: f32, cos_whole: f32, outside_sharp: bool, outside: bool) 
 /// (`power_prefix`). A lane is far where its bounding sphere subtends a half-angle θb with
 /// sin θb < `far_sin` (the tree's, [`DEFAULT_FAR_SIN`] unless `--far-sin` says otherwise) and
 /// its normal cone has cos θo > `FAR_COS`, at a receiver without a specular lobe (a glossy one
-/// mirrors single lights of a cluster). One camera sample's lit-surface MSE (`bench --spp 1 --repeat 100 --width 320 --seed 1000`, bvh + mis) against a walk that
-/// always descends, sin θb below 0.2, 0.3 and 0.5 (cos θo above 0.5, 0, 0): peers' Lambert copy
-/// of the 50k city +0.4, +1.3, +1.9% (relMSE +0.8, +3.1, +5.3%); town +0.4, +1.0, +2.8%; the 50k
-/// city (50 repeats) +0.1, +0.5, +0.8%. Without the glossy exception sin θb < 0.1 and cos θo >
+/// mirrors single lights of a cluster). One camera sample's lit-surface MSE (`bench --spp 1
+/// --repeat 100 --width 320 --seed 1000`, bvh + mis) against a walk that always descends, sin
+/// θb below 0.2, 0.3 and 0.5 (cos θo above 0.5, 0, 0): peers' Lambert copy of the 50k city
+/// +0.4, +1.3, +1.9% (relMSE +0.8, +3.1, +5.3%); town +0.4, +1.0, +2.8%; the 50k city (50
+/// repeats) +0.1, +0.5, +0.8%. Without the glossy exception sin θb < 0.1 and cos θo >
 /// 0.9 already raised the 50k city's by 8%. At 0.3 the render's CPU per camera sample fell 7.4%
 /// on the Lambert copy, 4.2% on the 50k city, 4.0% on the town and 3.4% on the 1M city (`render
 /// --spp 16 --width 320 --sampler independent`, bvh + mis, medians of 5 alternating rounds).
