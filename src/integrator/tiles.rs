@@ -9,7 +9,9 @@ use super::estimator::{Estimator, SampleCounts};
 use crate::accel::PACKET;
 use crate::color::luminance;
 use crate::film::{classify, Film, PixelStats, SampleClass};
-use crate::sampling::sampler::{draw_together, CameraSample, PixelSampler, Sampler, SamplerKind};
+use crate::sampling::sampler::{
+    draw_together, CameraSample, PacketNumbers, PixelSampler, Sampler, SamplerKind,
+};
 use crate::scene::{Camera, CameraRays};
 
 const TILE: u32 = 16;
@@ -136,6 +138,8 @@ fn render_tile(
         .flat_map(|y| (tx * TILE..((tx + 1) * TILE).min(w)).map(move |x| (x, y)))
         .collect();
     let pixel_sampler = |(x, y): (u32, u32)| sampler.pixel(y as u64 * w as u64 + x as u64);
+    // Every packet's numbers, drawn into the same storage where K·N > 1.
+    let mut numbers = PacketNumbers::new(sampler);
     let spp = opts.spp as usize;
     if spp >= PACKET {
         // A pixel's camera rays go through the BVH PACKET at a time.
@@ -148,7 +152,7 @@ fn render_tile(
                 for (i, cs) in samples.iter_mut().enumerate().take(count) {
                     *cs = pixel_sampler.camera_sample(first + i as u32);
                 }
-                draw_together(&mut samples[..count]);
+                draw_together(&mut samples[..count], &mut numbers);
                 let mut rays = [(Vec3::ZERO, Vec3::ZERO); PACKET];
                 for (cs, ray) in samples.iter().zip(&mut rays).take(count) {
                     let [jx, jy] = cs.pixel_jitter();
@@ -175,7 +179,7 @@ fn render_tile(
             for (i, cs) in samples.iter_mut().enumerate().take(count) {
                 *cs = samplers[i / spp].camera_sample((i % spp) as u32);
             }
-            draw_together(&mut samples[..count]);
+            draw_together(&mut samples[..count], &mut numbers);
             let mut rays = [(Vec3::ZERO, Vec3::ZERO); PACKET];
             for (i, (cs, ray)) in samples.iter().zip(&mut rays).take(count).enumerate() {
                 let (x, y) = run[i / spp];

@@ -1,5 +1,5 @@
-//! A packet's numbers drawn together. Where each camera sample has one light slot with one
-//! point (K = N = 1) and the CPU has AVX2, the numbers of a packet's camera samples (up to
+//! A packet's numbers drawn together (here K = N = 1; more slots: `packet`). Where each camera
+//! sample has one light slot with one point (K = N = 1) and the CPU has AVX2, the numbers of a packet's camera samples (up to
 //! eight) are made in AVX2 lanes when the packet is formed, bit for bit the numbers each would
 //! make alone, and each `CameraSample` then hands out its own: Sobol points from `sobol_avx2`
 //! (the 21 low bits appended to the light choice still hashed one sample at a time),
@@ -11,8 +11,8 @@ use glam::Vec3;
 
 use super::*;
 
-/// The lanes of a draw.
-const LANES: usize = 8;
+use super::packet::{draw_slots, LANES};
+
 const _: () = assert!(
     crate::accel::PACKET <= LANES,
     "a packet's samples fit one draw"
@@ -30,15 +30,19 @@ pub(super) struct Drawn {
     pub(super) bsdf_cosine: Vec3,
 }
 
-/// Draws the numbers of `samples` together where the module header says, else leaves them to
-/// be made one at a time, as they are for more than eight samples, for the other sequences and
-/// for Sobol points at indices from 2^32 on.
-pub fn draw_together(samples: &mut [CameraSample]) {
+/// Draws the numbers of `samples` together where the module header says (K·N > 1: into
+/// `numbers`, see `packet`), else leaves them to be made one at a time, as they are for more
+/// than eight samples, for the other sequences and for Sobol points at indices from 2^32 on.
+pub fn draw_together<'a>(samples: &mut [CameraSample<'a>], numbers: &'a mut PacketNumbers) {
     let Some(last) = samples.last() else {
         return;
     };
     let sm = &last.pixel.sampler;
-    if samples.len() > LANES || !(sm.k == 1 && sm.n == 1 && sm.avx2) {
+    if sm.k * sm.n > 1 {
+        draw_slots(samples, numbers);
+        return;
+    }
+    if samples.len() > LANES || !sm.avx2 {
         return;
     }
     #[cfg(target_arch = "x86_64")]
@@ -87,7 +91,7 @@ mod lanes {
         let direction = direction.map(unit_pair);
         let cosine = cosine_hemisphere(&direction.map(|d| d[0]), &direction.map(|d| d[1]));
         for (i, cs) in samples.iter_mut().enumerate() {
-            cs.drawn = Some(Drawn {
+            cs.source = Source::Drawn(Drawn {
                 jitter: unit_pair(jitter[i]),
                 light_choice: unit_53(choice[i]),
                 light_point: unit_pair(point[i]),
@@ -138,7 +142,7 @@ mod lanes {
         let cosine = cosine_hemisphere(&direction[0], &direction[1]);
         for (lane, cs) in samples.iter_mut().enumerate() {
             let seed = cs.pixel.seeds[LIGHT_POINT as usize];
-            cs.drawn = Some(Drawn {
+            cs.source = Source::Drawn(Drawn {
                 jitter: jitter.map(|c| c[lane]),
                 light_choice: with_hashed_bits(choice[lane], seed, u64::from(index[lane])),
                 light_point: point.map(|c| c[lane]),
@@ -158,50 +162,70 @@ mod lanes {
 mod tests {
     use super::*;
 
-    /// Every number a drawn camera sample hands out has the bits the same sample makes alone:
-    /// packets of one to eight samples, of one pixel or of several, at the start of a render,
-    /// further on, and across index 2^32, where Sobol packets are left undrawn.
+    /// Every number a drawn camera sample hands out, for every light slot, point and BSDF slot,
+    /// has the bits the same sample makes alone: K × N of 1 × 1 (`drawn`), 2 × 1, 1 × 3, 2 × 2
+    /// and 16 × 1 (`packet`), packets of one to eight samples of one pixel or of several, at the
+    /// start of a render, further on, and near index 2^32, where Sobol packets whose indices
+    /// reach it are left undrawn.
     #[test]
     fn drawn_numbers_are_the_numbers_made_one_at_a_time() {
         if !crate::cpu::has_avx2_fma() {
             return;
         }
-        let numbers = |cs: &CameraSample| {
-            let both = cs.bsdf_numbers(0);
-            let (lobe, direction) = (both.lobe, both.direction);
-            let mut bits = vec![cs.light_choice(0).to_bits()];
-            let f32s = [
-                cs.pixel_jitter(),
-                cs.light_point(0, 0),
-                direction,
-                cs.bsdf_direction(0),
-            ];
-            bits.extend(f32s.iter().flatten().map(|x| u64::from(x.to_bits())));
-            bits.extend([lobe, cs.bsdf_lobe(0)].map(|x| u64::from(x.to_bits())));
-            for cosine in [cs.bsdf_cosine_direction(0), both.cosine_direction()] {
-                bits.extend(cosine.to_array().map(|x| u64::from(x.to_bits())));
+        let numbers_of = |cs: &CameraSample, (k, n): (u32, u32)| {
+            let mut bits: Vec<u64> = (0..k).map(|slot| cs.light_choice(slot).to_bits()).collect();
+            let mut f32s = |xs: &[f32]| bits.extend(xs.iter().map(|x| u64::from(x.to_bits())));
+            f32s(&cs.pixel_jitter());
+            for slot in 0..k {
+                for point in 0..n {
+                    f32s(&cs.light_point(slot, point));
+                }
+            }
+            for j in 0..k * n {
+                let both = cs.bsdf_numbers(j);
+                f32s(&[both.lobe, cs.bsdf_lobe(j)]);
+                f32s(&[both.direction, cs.bsdf_direction(j)].concat());
+                f32s(&both.cosine_direction().to_array());
+                f32s(&cs.bsdf_cosine_direction(j).to_array());
             }
             bits
         };
         for kind in [SamplerKind::Independent, SamplerKind::Sobol] {
-            for first in [0u64, 5, (1 << 32) - 3] {
-                let sampler = Sampler::new(kind, 11, first, 8, 1, 1);
-                let pixels: Vec<PixelSampler> = (0..8).map(|p| sampler.pixel(p)).collect();
-                for count in 1..=LANES {
-                    for per_pixel in [8, 3, 1] {
-                        // Slot i: sample i % per_pixel of pixel i / per_pixel.
-                        let slot = |i: usize| (&pixels[i / per_pixel], (i % per_pixel) as u32);
-                        let mut samples: Vec<CameraSample> = (0..count)
-                            .map(|i| slot(i).0.camera_sample(slot(i).1))
-                            .collect();
-                        draw_together(&mut samples);
-                        let beyond = (0..count).any(|i| (first + u64::from(slot(i).1)) >> 32 != 0);
-                        let undrawn = kind == SamplerKind::Sobol && beyond;
-                        for (i, cs) in samples.iter().enumerate() {
-                            let case = format!("{kind:?}, first {first}, {count} of {per_pixel}");
-                            assert_eq!(cs.drawn.is_none(), undrawn, "{case}");
-                            let alone = slot(i).0.camera_sample(slot(i).1);
-                            assert_eq!(numbers(cs), numbers(&alone), "{case}, slot {i}");
+            for kn in [(1, 1), (2, 1), (1, 3), (2, 2), (16, 1)] {
+                for first in [0u64, 5, (1 << 28) - 3, (1 << 32) - 3] {
+                    let sampler = Sampler::new(kind, 11, first, 8, kn.0, kn.1);
+                    let pixels: Vec<PixelSampler> = (0..8).map(|p| sampler.pixel(p)).collect();
+                    let mut numbers = PacketNumbers::new(&sampler);
+                    for count in 1..=LANES {
+                        for per_pixel in [8, 3, 1] {
+                            // Slot i: sample i % per_pixel of pixel i / per_pixel.
+                            let slot = |i: usize| (&pixels[i / per_pixel], (i % per_pixel) as u32);
+                            let mut samples: Vec<CameraSample> = (0..count)
+                                .map(|i| slot(i).0.camera_sample(slot(i).1))
+                                .collect();
+                            draw_together(&mut samples, &mut numbers);
+                            // The largest index a sample's numbers read: S·K·N + K·N − 1.
+                            let per_sample = u64::from(kn.0 * kn.1);
+                            let last_index =
+                                |i: usize| (first + u64::from(slot(i).1) + 1) * per_sample - 1;
+                            let beyond = (0..count).any(|i| last_index(i) >> 32 != 0);
+                            let undrawn = kind == SamplerKind::Sobol && beyond;
+                            let case =
+                                format!("{kind:?} {kn:?}, first {first}, {count}/{per_pixel}");
+                            for (i, cs) in samples.iter().enumerate() {
+                                let drawn = match cs.source {
+                                    Source::Alone => false,
+                                    Source::Drawn(_) => kn == (1, 1),
+                                    Source::Packet(_) => kn != (1, 1),
+                                };
+                                assert_eq!(drawn, !undrawn, "{case}");
+                                let alone = slot(i).0.camera_sample(slot(i).1);
+                                assert_eq!(
+                                    numbers_of(cs, kn),
+                                    numbers_of(&alone, kn),
+                                    "{case}, slot {i}"
+                                );
+                            }
                         }
                     }
                 }

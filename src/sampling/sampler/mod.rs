@@ -32,9 +32,9 @@
 //! stratify each render's own points (index s·… relative to the render, over the count in the
 //! last column), with permutations seeded by F as well: every pass is its own stratified set.
 //!
-//! Where the sampler is independent or Sobol with K = N = 1, on a CPU with AVX2, a packet's
-//! camera samples have their numbers drawn together in AVX2 lanes (`drawn`), the same bits as
-//! one at a time.
+//! Where the sampler is independent or Sobol, on a CPU with AVX2, a packet's camera samples have
+//! their numbers drawn together in AVX2 lanes (`drawn` where K = N = 1, `packet` for up to 16
+//! slots), the same bits as one at a time.
 //!
 //! The 32-bit sequences give 24-bit f32 coordinates; the light choice, which may pick among
 //! millions of lights, appends 21 hashed random bits to the sequence's 32 to fill an f64
@@ -46,6 +46,7 @@ mod halton;
 mod hash_avx2;
 mod independent;
 mod lhs;
+mod packet;
 mod scramble;
 mod sobol;
 #[cfg(target_arch = "x86_64")]
@@ -54,6 +55,8 @@ mod stratified;
 
 pub use drawn::draw_together;
 use drawn::Drawn;
+use packet::Lane;
+pub use packet::PacketNumbers;
 
 use scramble::{hash, subseed};
 use sobol::Reversed;
@@ -164,7 +167,7 @@ impl PixelSampler {
         CameraSample {
             pixel: self,
             s: s as u64,
-            drawn: None,
+            source: Source::Alone,
         }
     }
 
@@ -281,9 +284,19 @@ impl BsdfNumbers {
 pub struct CameraSample<'a> {
     pixel: &'a PixelSampler,
     s: u64,
-    /// Its numbers, where they were drawn with its packet's ([`draw_together`]; then K = N = 1,
-    /// and only slot 0 exists).
-    drawn: Option<Drawn>,
+    /// Where its numbers come from.
+    source: Source<'a>,
+}
+
+/// Where a camera sample's numbers come from ([`draw_together`]).
+#[derive(Clone, Copy)]
+enum Source<'a> {
+    /// Made one at a time, as they are asked for.
+    Alone,
+    /// Drawn with its packet's, K = N = 1: all of them kept here.
+    Drawn(Drawn),
+    /// Drawn with its packet's, K·N > 1: its lane of the packet's numbers.
+    Packet(Lane<'a>),
 }
 
 /// 2^-53: a 53-bit integer times this is a fraction in [0, 1).
@@ -314,8 +327,10 @@ impl CameraSample<'_> {
     /// The point inside the pixel, in [0,1)².
     #[inline]
     pub fn pixel_jitter(&self) -> [f32; 2] {
-        if let Some(d) = &self.drawn {
-            return d.jitter;
+        match &self.source {
+            Source::Drawn(d) => return d.jitter,
+            Source::Packet(lane) => return lane.jitter(),
+            Source::Alone => {}
         }
         self.pixel.get_2d(PIXEL, 1, self.s, 0)
     }
@@ -323,8 +338,11 @@ impl CameraSample<'_> {
     /// The number that chooses light slot k's light, in [0, 1) with 53 bits.
     #[inline(always)]
     pub fn light_choice(&self, k: u32) -> f64 {
-        if let (Some(d), 0) = (&self.drawn, k) {
+        if let (Source::Drawn(d), 0) = (&self.source, k) {
             return d.light_choice;
+        }
+        if let Source::Packet(lane) = &self.source {
+            return lane.light_choice(k);
         }
         let sm = &self.pixel.sampler;
         if sm.kind == SamplerKind::Independent {
@@ -353,8 +371,11 @@ impl CameraSample<'_> {
     /// The 2D number that places point n on light slot k's light.
     #[inline]
     pub fn light_point(&self, k: u32, n: u32) -> [f32; 2] {
-        if let (Some(d), 0, 0) = (&self.drawn, k, n) {
+        if let (Source::Drawn(d), 0, 0) = (&self.source, k, n) {
             return d.light_point;
+        }
+        if let Source::Packet(lane) = &self.source {
+            return lane.light_point(k, n);
         }
         let sm = &self.pixel.sampler;
         let slot = k as u64 * sm.n + n as u64;
@@ -365,8 +386,11 @@ impl CameraSample<'_> {
     /// The number that chooses BSDF slot j's lobe.
     #[inline]
     pub fn bsdf_lobe(&self, j: u32) -> f32 {
-        if let (Some(d), 0) = (&self.drawn, j) {
+        if let (Source::Drawn(d), 0) = (&self.source, j) {
             return d.bsdf_lobe;
+        }
+        if let Source::Packet(lane) = &self.source {
+            return lane.bsdf(j).lobe;
         }
         let sm = &self.pixel.sampler;
         if sm.kind == SamplerKind::Sobol {
@@ -383,11 +407,19 @@ impl CameraSample<'_> {
     /// direction's cosine-hemisphere warp where the packet made it.
     #[inline]
     pub fn bsdf_numbers(&self, j: u32) -> BsdfNumbers {
-        if let (Some(d), 0) = (&self.drawn, j) {
+        if let (Source::Drawn(d), 0) = (&self.source, j) {
             return BsdfNumbers {
                 lobe: d.bsdf_lobe,
                 direction: d.bsdf_direction,
                 drawn_cosine: Some(d.bsdf_cosine),
+            };
+        }
+        if let Source::Packet(lane) = &self.source {
+            let b = lane.bsdf(j);
+            return BsdfNumbers {
+                lobe: b.lobe,
+                direction: b.direction,
+                drawn_cosine: Some(b.cosine),
             };
         }
         let sm = &self.pixel.sampler;
@@ -411,8 +443,11 @@ impl CameraSample<'_> {
     /// together.
     #[inline]
     pub fn bsdf_cosine_direction(&self, j: u32) -> glam::Vec3 {
-        if let (Some(d), 0) = (&self.drawn, j) {
+        if let (Source::Drawn(d), 0) = (&self.source, j) {
             return d.bsdf_cosine;
+        }
+        if let Source::Packet(lane) = &self.source {
+            return lane.bsdf(j).cosine;
         }
         crate::sampling::warp::cosine_hemisphere(self.bsdf_direction(j))
     }
@@ -420,8 +455,11 @@ impl CameraSample<'_> {
     /// The 2D number that gives BSDF (or hemisphere) slot j's direction.
     #[inline]
     pub fn bsdf_direction(&self, j: u32) -> [f32; 2] {
-        if let (Some(d), 0) = (&self.drawn, j) {
+        if let (Source::Drawn(d), 0) = (&self.source, j) {
             return d.bsdf_direction;
+        }
+        if let Source::Packet(lane) = &self.source {
+            return lane.bsdf(j).direction;
         }
         let sm = &self.pixel.sampler;
         self.pixel

@@ -1,0 +1,279 @@
+//! A packet's numbers for K·N > 1, drawn together. Where each camera sample has several light
+//! slots or points (K·N from 2 to `MAX_SLOTS`) and the CPU has AVX2, the independent and Sobol
+//! numbers of a packet's camera samples (up to eight, one a lane) are made slot by slot in AVX2
+//! lanes when the packet is formed, for every light choice, light point and BSDF slot, bit for
+//! bit the numbers each sample would make alone, and kept in the tile's [`PacketNumbers`]; each
+//! `CameraSample` then reads its own lane there. (K = N = 1 keeps its numbers in the sample
+//! itself: `drawn`.)
+
+use glam::Vec3;
+
+use super::*;
+
+/// The lanes of a draw: one camera sample each.
+pub(super) const LANES: usize = 8;
+
+/// The most K·N slots a packet's numbers hold (renders with more make theirs one at a time); a
+/// power of two, so a slot index masked by `MAX_SLOTS − 1` needs no bounds check.
+const MAX_SLOTS: usize = 16;
+const _: () = assert!(MAX_SLOTS.is_power_of_two() && LANES.is_power_of_two());
+
+/// A packet's numbers lane by lane (lane i: the packet's camera sample i), for every slot;
+/// written over by each packet of a tile.
+#[derive(Debug)]
+pub struct PacketNumbers {
+    /// K and N of the render.
+    k: usize,
+    n: usize,
+    jitter: [[f32; 2]; LANES],
+    /// Light slot k's choice at [k][lane].
+    light_choice: [[f64; LANES]; MAX_SLOTS],
+    /// Point n on light slot k at [k·N + n][lane].
+    light_point: [[[f32; 2]; LANES]; MAX_SLOTS],
+    /// BSDF slot j's numbers at [j][lane].
+    bsdf: [[BsdfSlot; LANES]; MAX_SLOTS],
+}
+
+/// One BSDF slot's numbers: the lobe's, the direction's, and the direction warped to the
+/// cosine-weighted hemisphere.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct BsdfSlot {
+    pub(super) lobe: f32,
+    pub(super) direction: [f32; 2],
+    pub(super) cosine: Vec3,
+}
+
+/// A camera sample's place in its packet's numbers.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Lane<'a> {
+    numbers: &'a PacketNumbers,
+    lane: usize,
+}
+
+impl Lane<'_> {
+    #[inline(always)]
+    pub(super) fn jitter(&self) -> [f32; 2] {
+        self.numbers.jitter[self.lane & (LANES - 1)]
+    }
+
+    #[inline(always)]
+    pub(super) fn light_choice(&self, k: u32) -> f64 {
+        self.numbers.light_choice[slot(k as usize)][self.lane & (LANES - 1)]
+    }
+
+    #[inline(always)]
+    pub(super) fn light_point(&self, k: u32, n: u32) -> [f32; 2] {
+        let at = slot(k as usize * self.numbers.n + n as usize);
+        self.numbers.light_point[at][self.lane & (LANES - 1)]
+    }
+
+    #[inline(always)]
+    pub(super) fn bsdf(&self, j: u32) -> BsdfSlot {
+        self.numbers.bsdf[slot(j as usize)][self.lane & (LANES - 1)]
+    }
+}
+
+/// A slot index as the arrays hold it: callers ask for slots below K·N ≤ `MAX_SLOTS`, which the
+/// mask leaves as they are.
+#[inline(always)]
+fn slot(index: usize) -> usize {
+    index & (MAX_SLOTS - 1)
+}
+
+impl PacketNumbers {
+    /// Storage for the packets of a render with `sampler`'s K and N.
+    pub fn new(sampler: &Sampler) -> PacketNumbers {
+        PacketNumbers {
+            k: sampler.k as usize,
+            n: sampler.n as usize,
+            jitter: [[0.0; 2]; LANES],
+            light_choice: [[0.0; LANES]; MAX_SLOTS],
+            light_point: [[[0.0; 2]; LANES]; MAX_SLOTS],
+            bsdf: [[BsdfSlot::default(); LANES]; MAX_SLOTS],
+        }
+    }
+}
+
+/// Draws the numbers of `samples` (at most `LANES`, all of a render with K·N > 1 and the
+/// sampler `numbers` was made for) into `numbers` and points each sample at its lane, where the
+/// module header says; else leaves them to be made one at a time.
+pub(super) fn draw_slots<'a>(samples: &mut [CameraSample<'a>], numbers: &'a mut PacketNumbers) {
+    let Some(last) = samples.last() else {
+        return;
+    };
+    let sm = &last.pixel.sampler;
+    let (k, n) = (sm.k as usize, sm.n as usize);
+    if samples.len() > LANES || !sm.avx2 || (k, n) != (numbers.k, numbers.n) || k * n > MAX_SLOTS {
+        return;
+    }
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: the sampler's `avx2` is true only when the CPU reported AVX2 (`has_avx2_fma`).
+    let drawn = unsafe {
+        match sm.kind {
+            SamplerKind::Sobol => lanes::draw_sobol(samples, numbers),
+            SamplerKind::Independent => {
+                lanes::draw_independent(samples, numbers);
+                true
+            }
+            _ => false,
+        }
+    };
+    #[cfg(not(target_arch = "x86_64"))]
+    let drawn = false;
+    if drawn {
+        let numbers: &'a PacketNumbers = numbers;
+        for (lane, cs) in samples.iter_mut().enumerate() {
+            cs.source = Source::Packet(Lane { numbers, lane });
+        }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+mod lanes {
+    use std::arch::x86_64::{_mm256_add_epi32, _mm256_mullo_epi32, _mm256_set1_epi32};
+
+    use super::super::hash_avx2::hashes;
+    use super::super::independent::halves;
+    use super::super::sobol::{GroupSeeds, SeedLanes};
+    use super::super::sobol_avx2::{bits, load, sample_2d, sample_3d, units};
+    use super::*;
+    use crate::sampling::warp_avx2::cosine_hemisphere;
+
+    /// Eight BSDF slots from their lobe numbers and direction numbers (lane by lane), with the
+    /// directions' cosine-hemisphere warps.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn bsdf_lanes(lobe: [f32; LANES], direction: [[f32; 2]; LANES]) -> [BsdfSlot; LANES] {
+        let cosine = cosine_hemisphere(&direction.map(|d| d[0]), &direction.map(|d| d[1]));
+        std::array::from_fn(|lane| BsdfSlot {
+            lobe: lobe[lane],
+            direction: direction[lane],
+            cosine: Vec3::new(cosine.x[lane], cosine.y[lane], cosine.z[lane]),
+        })
+    }
+
+    /// Each lane's absolute index of point `slot` of a group with `per_sample` points per
+    /// camera sample (`PixelSampler::absolute`); spare lanes repeat the last sample.
+    fn indices(samples: &[CameraSample], per_sample: usize, slot: usize) -> [u64; LANES] {
+        std::array::from_fn(|i| {
+            let cs = &samples[i.min(samples.len() - 1)];
+            cs.pixel.absolute(per_sample as u64, cs.s, slot as u64)
+        })
+    }
+
+    /// Each lane's seed of dimension `dim`.
+    fn seeds(samples: &[CameraSample], dim: u64) -> [u64; LANES] {
+        std::array::from_fn(|i| samples[i.min(samples.len() - 1)].pixel.seeds[dim as usize])
+    }
+
+    /// `draw_slots` for the independent sampler: the numbers `get_1d`, `get_2d` and
+    /// `light_choice` make, from the same hashes.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn draw_independent(samples: &[CameraSample], numbers: &mut PacketNumbers) {
+        let (k, kn) = (numbers.k, numbers.k * numbers.n);
+        let unit_pair = |h: u64| halves(h).map(to_f32);
+        let seed = |dim| seeds(samples, dim);
+        let [jitter] = hashes(indices(samples, 1, 0), &[seed(PIXEL)]);
+        numbers.jitter = jitter.map(unit_pair);
+        for slot in 0..k {
+            let [choice] = hashes(indices(samples, k, slot), &[seed(LIGHT_CHOICE)]);
+            numbers.light_choice[slot] = choice.map(unit_53);
+        }
+        // The light points and the BSDF slots share their indices S·K·N + slot.
+        let dims = [seed(LIGHT_POINT), seed(BSDF_LOBE), seed(BSDF_DIRECTION)];
+        for slot in 0..kn {
+            let [point, lobe, direction] = hashes(indices(samples, kn, slot), &dims);
+            numbers.light_point[slot] = point.map(unit_pair);
+            let lobe = lobe.map(|h| to_f32(halves(h)[0]));
+            numbers.bsdf[slot] = bsdf_lanes(lobe, direction.map(unit_pair));
+        }
+    }
+
+    /// The seed lanes of Sobol groups `dims`: lanes of one pixel share its seeds, made once.
+    fn group_seeds<const G: usize>(samples: &[CameraSample], dims: [u64; G]) -> [SeedLanes; G] {
+        let mut lanes = [SeedLanes::default(); G];
+        let mut made: Option<(&PixelSampler, [GroupSeeds; G])> = None;
+        for lane in 0..LANES {
+            let cs = &samples[lane.min(samples.len() - 1)];
+            let groups = match made {
+                Some((pixel, groups)) if std::ptr::eq(pixel, cs.pixel) => groups,
+                _ => dims.map(|dim| GroupSeeds::of(cs.pixel.seeds[dim as usize])),
+            };
+            made = Some((cs.pixel, groups));
+            for (seeds, group) in lanes.iter_mut().zip(&groups) {
+                seeds.set(lane, group);
+            }
+        }
+        lanes
+    }
+
+    /// `draw_slots` for Sobol points: `sample_2d` and `sample_3d` in every lane. False (and
+    /// nothing drawn) where some index would be 2^32 or more.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn draw_sobol(samples: &[CameraSample], numbers: &mut PacketNumbers) -> bool {
+        let (k, n) = (numbers.k, numbers.n);
+        let kn = k * n;
+        // Each lane's camera sample S; a group's index is S·per_sample + slot, the largest
+        // S·K·N + K·N − 1, which must lie below 2^32.
+        let camera = indices(samples, 1, 0);
+        let fits = |s: u64| {
+            (s + 1)
+                .checked_mul(kn as u64)
+                .is_some_and(|end| end <= 1 << 32)
+        };
+        if !camera.iter().all(|&s| fits(s)) {
+            return false;
+        }
+        let s = load(camera.map(|i| i as u32));
+        let at = |per_sample: usize, slot: usize| {
+            let times = _mm256_mullo_epi32(s, _mm256_set1_epi32(per_sample as i32));
+            _mm256_add_epi32(times, _mm256_set1_epi32(slot as i32))
+        };
+        let [pixel, light, bsdf] = group_seeds(samples, [PIXEL, LIGHT_POINT, BSDF_DIRECTION]);
+        let [jx, jy] = sample_2d(at(1, 0), &pixel);
+        let (jx, jy) = (units(jx), units(jy));
+        numbers.jitter = std::array::from_fn(|lane| [jx[lane], jy[lane]]);
+        // N = 1: a light's choice is the third coordinate of the point on it; else dimension
+        // 2's own point (the first coordinate of its group's).
+        let choice_group = (n > 1).then(|| group_seeds(samples, [LIGHT_CHOICE])[0]);
+        let choice_seed = seeds(samples, if n > 1 { LIGHT_CHOICE } else { LIGHT_POINT });
+        for slot in 0..k {
+            let choice = match &choice_group {
+                None => {
+                    let [x, y, z] = sample_3d(at(k, slot), &light);
+                    let (x, y) = (units(x), units(y));
+                    numbers.light_point[slot] = std::array::from_fn(|lane| [x[lane], y[lane]]);
+                    bits(z)
+                }
+                Some(seeds) => bits(sample_2d(at(k, slot), seeds)[0]),
+            };
+            numbers.light_choice[slot] = std::array::from_fn(|lane| {
+                let index = camera[lane] * k as u64 + slot as u64;
+                with_hashed_bits(choice[lane], choice_seed[lane], index)
+            });
+        }
+        if n > 1 {
+            for slot in 0..kn {
+                let [x, y] = sample_2d(at(kn, slot), &light);
+                let (x, y) = (units(x), units(y));
+                numbers.light_point[slot] = std::array::from_fn(|lane| [x[lane], y[lane]]);
+            }
+        }
+        for j in 0..kn {
+            let [x, y, z] = sample_3d(at(kn, j), &bsdf);
+            let (x, y) = (units(x), units(y));
+            let direction = std::array::from_fn(|lane| [x[lane], y[lane]]);
+            numbers.bsdf[j] = bsdf_lanes(units(z), direction);
+        }
+        true
+    }
+}
