@@ -1,32 +1,55 @@
 //! The program's memory allocator: glibc's malloc for every block below 1 MiB, and for larger
-//! blocks an anonymous mapping of our own, a whole number of 2 MiB huge pages long and marked for
-//! transparent huge pages (`madvise(MADV_HUGEPAGE)`), so the kernel backs it with 2 MiB pages
-//! where it can: one page fault and one TLB entry for 512 small pages.
+//! blocks an anonymous mapping of our own on a 2 MiB boundary, a whole number of 2 MiB long,
+//! advised to use transparent huge pages (`madvise(MADV_HUGEPAGE)`) where it is one of the arrays
+//! that rendering reads at random or 16 MiB or longer. The kernel then backs it with 2 MiB pages
+//! where it can: one TLB entry and one page fault for 512 small pages.
 //!
-//! Loading and indexing a large scene writes fresh memory, not reused memory: the geometry
-//! BVH's parts and the light tree's build allocate their temporaries anew, each one faulted in
-//! page by page on small pages. On the 1M-emitter city that was about 380,000 faults of 4 KiB
-//! for a peak of 427 MB (README, Layout). Rendering reads the scene's arrays at random (the
-//! walk's nodes, triangles, lights, the alias table), and every small page it touches is a TLB
-//! entry; in a virtual machine each TLB miss walks two page tables. So blocks from 1 MiB up
-//! (the 50k city's alias table is 1.2 MB) are mapped in whole huge pages, the tail of the last
-//! one included: rounding up costs at most 2 MiB a block. `render --spp 1 --width 64 --selector
-//! bvh` of the 1M city, `/usr/bin/time`, three runs each of the binary before (c9cfc79) and
-//! after: 25,800–26,800 → 16,000–17,100 minor faults (448 of them huge pages, none falling back
-//! to small ones: `thp_fault_alloc` and `thp_fault_fallback` in /proc/vmstat), 0.49–0.87 →
-//! 0.25–0.58 s of system time, peak 440–451 → 449–458 MB (the render's time on the 50k city
-//! moved within this machine's noise: `compare.py` of the peers' harness, six runs). Growth
-//! (`realloc`) of a mapped block moves its pages with `mremap`, without copying (or copies them
-//! where the kernel refuses the move). The advice is only advice: where the kernel gives no
-//! huge pages (THP disabled, or none free), the blocks are plain mappings, as glibc's would be.
+//! Rendering reads the scene's arrays at random (the walk's nodes, the test triangles and their
+//! ids, the scene's triangles, the lights, the alias table, the light tree), and every small page
+//! it touches is a TLB entry; in a virtual machine each TLB miss walks two page tables. Those
+//! arrays are made inside [`on_huge_pages`], which marks the blocks the thread maps meanwhile.
+//! A very large block (`LARGE`) would take thousands of small-page faults, so it gets huge pages
+//! wherever it is made. The other blocks, the builds' temporaries and the file's bytes, stay on
+//! small pages: a free huge page may just have been handed back to the hypervisor (a guest with
+//! free page reporting, as this machine's), and faulting it in again took about 2 ms. With every
+//! block of the 50k city on huge pages (94 MB), a render started after 8 idle seconds spent
+//! 0.13–0.18 s of CPU besides its render; with the render's arrays alone (22 MB) 0.09–0.12 s;
+//! back to back 0.063–0.080 against 0.072–0.081 s (`render --spp 1 --width 320`, power + mis,
+//! the peers' Lambert copy of the 50k city, four runs each). The peers' harness as its README
+//! runs it (power_mis then bvh_mis, five runs each, alternating) gave power_mis 0.321–0.334 →
+//! 0.314–0.321 µs per camera sample (1.27–1.32 → 1.21–1.25× Mitsuba's), bvh_mis unchanged; on
+//! the 1M-light city (`render --spp 1 --width 64 --selector bvh`, back to back) CPU 2.04–2.11
+//! → 2.07–2.08 s, peak RSS 431–441 → 440–442 MB. Mapping the large blocks ourselves also lets
+//! growth (`realloc`) move a block's pages with `mremap`, without copying (or copy them where
+//! the kernel refuses the move). The advice is only advice: where the kernel gives no huge pages
+//! (THP disabled, or none free), the blocks are plain mappings, as glibc's would be.
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::ptr::null_mut;
+
+std::thread_local! {
+    /// Whether this thread is inside [`on_huge_pages`].
+    static HUGE_PAGES: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Runs `build` with the blocks of 1 MiB and more that this thread maps meanwhile (anew, or
+/// moved by growth) advised to use huge pages: for the arrays that rendering reads at random
+/// (see the module header). Blocks that other threads map meanwhile (the workers of a parallel
+/// `collect`, whose final vector the calling thread allocates) are not marked.
+pub fn on_huge_pages<R>(build: impl FnOnce() -> R) -> R {
+    let outer = HUGE_PAGES.replace(true);
+    let result = build();
+    HUGE_PAGES.set(outer);
+    result
+}
 
 /// One huge page: mappings start on a multiple of it and are a whole number of it long.
 const HUGE_MIN: usize = 2 << 20;
 /// Blocks of at least this many bytes are mapped by us.
 const MAP_MIN: usize = 1 << 20;
+/// Blocks of at least this many bytes are put on huge pages wherever they are made: thousands
+/// of small-page faults each (see the module header).
+const LARGE: usize = 16 << 20;
 /// The size and alignment of a mapping's (small) pages.
 const PAGE: usize = 4096;
 
@@ -90,9 +113,13 @@ unsafe fn map(size: usize) -> *mut u8 {
     start as *mut u8
 }
 
-/// Asks for huge pages on `len` bytes at `p` (a mapping of ours); refused advice changes nothing.
+/// Asks for huge pages on `len` bytes at `p` (a mapping of ours) inside [`on_huge_pages`], or
+/// where the block is `LARGE` or longer; refused advice changes nothing.
 #[cfg(target_os = "linux")]
 fn advise_huge(p: *mut libc::c_void, len: usize) {
+    if !(HUGE_PAGES.get() || len >= LARGE) {
+        return;
+    }
     // SAFETY: madvise only sets a flag on pages of a mapping we own; its result is ignored on
     // purpose (the mapping works either way).
     unsafe { libc::madvise(p, len, libc::MADV_HUGEPAGE) };
@@ -290,27 +317,51 @@ mod tests {
         None
     }
 
+    /// Blocks mapped inside `on_huge_pages` (also nested in another call, and moved there by
+    /// growth) and blocks of `LARGE` bytes or more are advised to use huge pages; other mapped
+    /// blocks, blocks mapped after the call returned, and glibc's small blocks are not.
     #[test]
-    fn large_blocks_are_advised_to_use_huge_pages_and_small_ones_are_not() {
+    fn huge_pages_are_asked_for_inside_on_huge_pages_and_for_large_blocks_only() {
         // Where the kernel has no transparent huge pages, madvise refuses the advice.
         if !std::path::Path::new("/sys/kernel/mm/transparent_hugepage/enabled").exists() {
             return;
         }
         let a = HugePageAllocator;
-        let (large, small) = (
-            Layout::from_size_align(3 * HUGE_MIN, 8).unwrap(),
-            Layout::from_size_align(MAP_MIN / 2, 8).unwrap(),
-        );
-        // SAFETY: non-zero sizes, freed with their layouts.
-        unsafe {
-            let (p, q) = (a.alloc(large), a.alloc(small));
-            let huge = |flags: &str| flags.split_whitespace().any(|f| f == "hg");
-            let flags = mapping_flags(p).expect("the large block is a mapping");
-            assert!(huge(&flags), "large block's flags: {flags}");
-            let flags = mapping_flags(q).expect("the small block is in some mapping");
-            assert!(!huge(&flags), "small block's flags: {flags}");
-            a.dealloc(p, large);
-            a.dealloc(q, small);
+        let layout = |size: usize| Layout::from_size_align(size, 8).unwrap();
+        // SAFETY: non-zero sizes.
+        let block = |size: usize| (unsafe { a.alloc(layout(size)) }, layout(size));
+        let huge = |p: *const u8| {
+            let flags = mapping_flags(p).expect("the block is in some mapping");
+            (flags.split_whitespace().any(|f| f == "hg"), flags)
+        };
+        let (medium, grown) = (2 * HUGE_MIN, 5 * HUGE_MIN);
+        let marked = on_huge_pages(|| {
+            let outer = block(medium);
+            let inner = on_huge_pages(|| block(medium));
+            let after_inner = block(medium);
+            // Grown there, in place or moved to a new mapping.
+            // SAFETY: `inner` is a block of ours with its layout.
+            let moved = unsafe { a.realloc(inner.0, inner.1, grown) };
+            [outer, after_inner, (moved, layout(grown))]
+        });
+        let others = [block(medium), block(LARGE), block(MAP_MIN / 2)];
+        for (p, _) in &marked {
+            let (hg, flags) = huge(*p);
+            assert!(hg, "a block made inside on_huge_pages: {flags}");
+        }
+        let expected = [false, true, false];
+        for ((p, l), want) in others.iter().zip(expected) {
+            let (hg, flags) = huge(*p);
+            assert_eq!(
+                hg,
+                want,
+                "a block of {} bytes made outside: {flags}",
+                l.size()
+            );
+        }
+        for (p, l) in marked.into_iter().chain(others) {
+            // SAFETY: each block is ours, freed once with its layout.
+            unsafe { a.dealloc(p, l) };
         }
     }
 

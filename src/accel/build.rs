@@ -280,7 +280,8 @@ impl Joiner {
         let (nodes, primitives) = built.sizes();
         let mut joiner = Joiner {
             nodes: Vec::with_capacity(nodes),
-            primitive_indices: Vec::with_capacity(primitives),
+            // Every hit reads its triangle's id here: on huge pages.
+            primitive_indices: crate::alloc::on_huge_pages(|| Vec::with_capacity(primitives)),
         };
         joiner.nodes.push(CwBvhNode::default());
         let total_aabb = joiner.place(built, 0);

@@ -132,7 +132,10 @@ impl Collapser {
             choices: &self.choices,
             ordered,
             nodes: vec![CwBvhNode::default()],
-            primitive_indices: Vec::with_capacity(bvh2.primitive_indices.len()),
+            // Every hit reads its triangle's id here: on huge pages.
+            primitive_indices: crate::alloc::on_huge_pages(|| {
+                Vec::with_capacity(bvh2.primitive_indices.len())
+            }),
         };
         out.emit(0, 0);
         CwBvh {

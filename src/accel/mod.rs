@@ -16,6 +16,7 @@ use glam::{UVec2, Vec3};
 use obvhs::cwbvh::{node::CwBvhNode, CwBvh};
 use obvhs::ray::Ray;
 
+use crate::alloc::on_huge_pages;
 use crate::cpu::has_avx2_fma;
 use crate::sampling::prefetch::prefetch;
 use crate::scene::memory::BVH_PART_MAX_TRIANGLES;
@@ -98,10 +99,12 @@ impl Accel {
         let avx2 = has_simd_walk();
         let bvh = build_bvh(scene, part_max, !avx2);
         let prims = &bvh.primitive_indices;
-        let triangles = Triangles::new(prims.len(), |k| gathered_positions(scene, prims, k));
+        // The walks read these at random: on huge pages.
+        let triangles =
+            on_huge_pages(|| Triangles::new(prims.len(), |k| gathered_positions(scene, prims, k)));
         #[cfg(target_arch = "x86_64")]
         let walk_nodes = if avx2 {
-            planes::walk_nodes(&bvh.nodes)
+            on_huge_pages(|| planes::walk_nodes(&bvh.nodes))
         } else {
             Vec::new()
         };

@@ -83,9 +83,12 @@ impl Lights {
             .filter(|&i| scene.material_of(i as usize).is_emissive())
             .collect();
         // Sized once: a million lights grown by doubling would hold 1.5× their bytes at a time.
-        let mut lights = Vec::with_capacity(
-            emitting.len() + scene.punctual.len() + usize::from(scene.environment.is_some()),
-        );
+        // On huge pages: light sampling reads them at random.
+        let mut lights = crate::alloc::on_huge_pages(|| {
+            Vec::with_capacity(
+                emitting.len() + scene.punctual.len() + usize::from(scene.environment.is_some()),
+            )
+        });
         // Made in parallel (a textured emitter averages its texture over the triangle).
         lights.par_extend(emitting.par_iter().map(|&i| {
             let (i, t) = (i as usize, &scene.triangles[i as usize]);
@@ -130,7 +133,8 @@ impl Lights {
         // Refilled in place: a second table beside the first would add 4 B per triangle to the
         // light BVH's build peak, when `reorder` calls this.
         self.light_of_triangle.clear();
-        self.light_of_triangle.resize(triangles, u32::MAX);
+        // On huge pages: every emitter a BSDF ray hits is looked up here.
+        crate::alloc::on_huge_pages(|| self.light_of_triangle.resize(triangles, u32::MAX));
         self.environment = None;
         for (l, light) in self.lights.iter().enumerate() {
             match light {

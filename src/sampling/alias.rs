@@ -199,7 +199,8 @@ fn neumaier_sum(values: &[f64]) -> f64 {
 fn vose_bins(weights: &[f64], total: f64) -> Vec<Bin> {
     let n = weights.len();
     let n_f64 = n as f64;
-    let mut bins: Vec<Bin> = Vec::with_capacity(n);
+    // The table itself, which every choice reads at random: on huge pages.
+    let mut bins: Vec<Bin> = crate::alloc::on_huge_pages(|| Vec::with_capacity(n));
     let mut residual: Vec<f64> = Vec::with_capacity(n);
     let mut zeros: Vec<u32> = Vec::new();
     let mut small: Vec<u32> = Vec::new();

@@ -229,7 +229,10 @@ pub fn load_gltf_bytes_allowing(
         texture_map: std::collections::HashMap::new(),
     };
 
+    // Sized once (no growth), on huge pages: rendering reads the triangles at random. Where the
+    // declared count cannot be reserved, the list grows as the primitives are read instead.
     let (mut triangles, mut uvs) = (Vec::new(), Vec::new());
+    crate::alloc::on_huge_pages(|| triangles.try_reserve_exact(declared as usize)).ok();
     let mut stats = LoadStats::default();
     let mut cameras = Vec::new();
     let mut punctual = Vec::new();

@@ -20,7 +20,8 @@ impl PowerPrefix {
         if phi.is_empty() {
             return None;
         }
-        let mut sums = Vec::with_capacity(phi.len() + 1);
+        // On huge pages: a far lane's choice searches them.
+        let mut sums = crate::alloc::on_huge_pages(|| Vec::with_capacity(phi.len() + 1));
         let mut sum = 0.0f64;
         sums.push(sum);
         for &p in phi {

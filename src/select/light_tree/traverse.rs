@@ -83,7 +83,9 @@ impl BinaryTree {
     pub fn collapse(&self) -> LightBvh {
         let (nodes, reach) = collapse(&self.nodes, &self.grid, &self.points);
         let avx2 = has_avx2_fma();
-        let phi: Vec<f32> = self.points.iter().map(|p| p.phi).collect();
+        // On huge pages: a pair lane reads its two lights' powers.
+        let phi: Vec<f32> =
+            crate::alloc::on_huge_pages(|| self.points.iter().map(|p| p.phi).collect());
         LightBvh {
             near: NearTables::build(&nodes, &reach, &self.points, avx2),
             top: nodes.iter().take(DECODED_TOP).map(Decoded::of).collect(),

@@ -341,7 +341,8 @@ pub(super) fn collapse(
     // (the system allocator's realloc does not keep a 64-byte alignment).
     let (top, below): (usize, usize) = (wide.len(), counts.iter().sum());
     // Filled in parallel: 64 MB at 1M lights, which took about 20 ms on one core.
-    wide.reserve_exact(below);
+    // On huge pages: every choice reads a few nodes at random.
+    crate::alloc::on_huge_pages(|| wide.reserve_exact(below));
     wide.par_extend(rayon::iter::repeat_n(WideNode::empty(), below));
     reach.par_extend(rayon::iter::repeat_n([0.0; LANES], below));
     let mut blocks = Vec::with_capacity(deferred.len());
