@@ -4,27 +4,30 @@
 //! that rendering reads at random or 16 MiB or longer. The kernel then backs it with 2 MiB pages
 //! where it can: one TLB entry and one page fault for 512 small pages.
 //!
-//! Rendering reads the scene's arrays at random (the walk's nodes, the test triangles and their
-//! ids, the scene's triangles, the lights, the alias table, the light tree), and every small page
-//! it touches is a TLB entry; in a virtual machine each TLB miss walks two page tables. Those
-//! arrays are made inside [`on_huge_pages`], which marks the blocks the thread maps meanwhile.
-//! A very large block (`LARGE`) would take thousands of small-page faults, so it gets huge pages
-//! wherever it is made. The other blocks, the builds' temporaries and the file's bytes, stay on
-//! small pages: a free huge page may just have been handed back to the hypervisor (a guest with
-//! free page reporting, as this machine's), and faulting it in again took about 2 ms. With every
-//! block of the 50k city on huge pages (94 MB), a render started after 8 idle seconds spent
-//! 0.13–0.18 s of CPU besides its render; with the render's arrays alone (22 MB) 0.09–0.12 s;
-//! back to back 0.063–0.080 against 0.072–0.081 s (`render --spp 1 --width 320`, power + mis,
-//! the peers' Lambert copy of the 50k city, four runs each). The peers' harness as its README
-//! runs it (power_mis then bvh_mis, five runs each, alternating) gave power_mis 0.321–0.334 →
-//! 0.314–0.321 µs per camera sample (1.27–1.32 → 1.21–1.25× Mitsuba's), bvh_mis unchanged; on
-//! the 1M-light city (`render --spp 1 --width 64 --selector bvh`, back to back) CPU 2.04–2.11
-//! → 2.07–2.08 s, peak RSS 431–441 → 440–442 MB. Mapping the large blocks ourselves also lets
-//! growth (`realloc`) move a block's pages with `mremap`, without copying (or copy them where
-//! the kernel refuses the move). The advice is only advice: where the kernel gives no huge pages
-//! (THP disabled, or none free), the blocks are plain mappings, as glibc's would be.
+//! Rendering reads the scene's arrays at random (the AVX2 walk's nodes, the test triangles and
+//! their ids, the scene's triangles, the lights and each triangle's light, the alias table, the
+//! light tree's nodes, power prefix and powers), and every small page it touches is a TLB entry; in
+//! a virtual machine each TLB miss walks two page tables. Those arrays are made inside
+//! [`on_huge_pages`], which marks the blocks the thread maps meanwhile. A very large block
+//! (`LARGE`) would take thousands of small-page faults, so it gets huge pages wherever it is made.
+//! The other blocks, the builds' temporaries and the file's bytes, stay on small pages: a free huge
+//! page may just have been handed back to the hypervisor (a guest with free page reporting, as this
+//! machine's), and faulting it in again took about 2 ms. With every block of the 50k city on huge
+//! pages (94 MB), a render started after 8 idle seconds spent 0.13–0.18 s of CPU besides its
+//! render; with the render's arrays alone (22 MB) 0.09–0.12 s. Back to back, where the freed pages
+//! are still the guest's, the small-page faults cost a little more: 0.063–0.080 s with every block
+//! on huge pages, 0.072–0.081 s with the arrays alone (`render --spp 1 --width 320`, power + mis,
+//! the peers' Lambert copy of the 50k city, four runs each). The peers' harness as its README runs
+//! it (power_mis then bvh_mis, five runs each, alternating) gave power_mis 0.321–0.334 →
+//! 0.314–0.321 µs per camera sample (1.27–1.32 → 1.21–1.25× Mitsuba's), bvh_mis unchanged; on the
+//! 1M-light city (`render --spp 1 --width 64 --selector bvh`, back to back) CPU 2.04–2.11 →
+//! 2.07–2.08 s, peak RSS 431–441 → 440–442 MB. Mapping the large blocks ourselves also lets growth
+//! (`realloc`) move a block's pages with `mremap`, without copying (or copy them where the kernel
+//! refuses the move). The advice is only advice: where the kernel gives no huge pages (THP
+//! disabled, or none free), the blocks are plain mappings, as glibc's would be.
 
 use std::alloc::{GlobalAlloc, Layout, System};
+#[cfg(target_os = "linux")]
 use std::ptr::null_mut;
 
 std::thread_local! {
@@ -32,29 +35,37 @@ std::thread_local! {
     static HUGE_PAGES: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
 }
 
-/// Runs `build` with the blocks of 1 MiB and more that this thread maps meanwhile (anew, or
-/// moved by growth) advised to use huge pages: for the arrays that rendering reads at random
-/// (see the module header). Blocks that other threads map meanwhile (the workers of a parallel
-/// `collect`, whose final vector the calling thread allocates) are not marked.
+/// Runs `build` with the blocks of 1 MiB and more that this thread maps or grows meanwhile
+/// advised to use huge pages (a grown block whole, the pages it had included): for the arrays
+/// that rendering reads at random (see the module header). Blocks that other threads map
+/// meanwhile (the workers of a parallel `collect`, whose final vector the calling thread
+/// allocates) are not marked; a block grown later, outside, keeps the advice of the pages it had.
 pub fn on_huge_pages<R>(build: impl FnOnce() -> R) -> R {
-    let outer = HUGE_PAGES.replace(true);
-    let result = build();
-    HUGE_PAGES.set(outer);
-    result
+    /// Puts the thread's flag back as it was, also when `build` panics.
+    struct Restore(bool);
+    impl Drop for Restore {
+        fn drop(&mut self) {
+            HUGE_PAGES.set(self.0);
+        }
+    }
+    let _restore = Restore(HUGE_PAGES.replace(true));
+    build()
 }
 
 /// One huge page: mappings start on a multiple of it and are a whole number of it long.
+#[cfg(target_os = "linux")]
 const HUGE_MIN: usize = 2 << 20;
 /// Blocks of at least this many bytes are mapped by us.
 const MAP_MIN: usize = 1 << 20;
 /// Blocks of at least this many bytes are put on huge pages wherever they are made: thousands
 /// of small-page faults each (see the module header).
+#[cfg(target_os = "linux")]
 const LARGE: usize = 16 << 20;
 /// The size and alignment of a mapping's (small) pages.
 const PAGE: usize = 4096;
 
-/// glibc's malloc with blocks of 1 MiB and more mapped on transparent huge pages (see the module
-/// header); elsewhere than Linux, the system allocator alone.
+/// glibc's malloc with blocks of 1 MiB and more mapped by us, on transparent huge pages where
+/// the module header says; elsewhere than Linux, the system allocator alone.
 pub struct HugePageAllocator;
 
 /// Whether a block of `layout` is mapped by us: large, and aligned no more than a page.
@@ -64,16 +75,17 @@ fn is_mapped(layout: &Layout) -> bool {
 }
 
 /// The length of the mapping that holds `size` bytes: whole huge pages.
+#[cfg(target_os = "linux")]
 #[inline]
 fn mapped_len(size: usize) -> usize {
     size.next_multiple_of(HUGE_MIN)
 }
 
 /// A fresh zero-filled mapping of at least `size` bytes starting on a huge-page boundary,
-/// advised to use huge pages, or null. The kernel does not align mappings to huge pages: so
-/// `size` rounded up to whole huge pages, plus 2 MiB less a page, is mapped, and the slack before
-/// the boundary and after the block is unmapped again. Every 2 MiB of the block, the last one
-/// included, can then be one huge page.
+/// advised to use huge pages where `wants_huge`, or null. The kernel does not align mappings to
+/// huge pages: so `size` rounded up to whole huge pages, plus 2 MiB less a page, is mapped, and
+/// the slack before the boundary and after the block is unmapped again. Every 2 MiB of the
+/// block, the last one included, can then be one huge page.
 #[cfg(target_os = "linux")]
 unsafe fn map(size: usize) -> *mut u8 {
     let len = mapped_len(size);
@@ -109,17 +121,22 @@ unsafe fn map(size: usize) -> *mut u8 {
             libc::munmap((start + len) as *mut libc::c_void, tail);
         }
     }
-    advise_huge(start as *mut libc::c_void, len);
+    if wants_huge(size) {
+        advise_huge(start as *mut libc::c_void, len);
+    }
     start as *mut u8
 }
 
-/// Asks for huge pages on `len` bytes at `p` (a mapping of ours) inside [`on_huge_pages`], or
-/// where the block is `LARGE` or longer; refused advice changes nothing.
+/// Whether a block of `size` bytes mapped or grown now is to be on huge pages: inside
+/// [`on_huge_pages`], or `LARGE` or longer.
+#[cfg(target_os = "linux")]
+fn wants_huge(size: usize) -> bool {
+    HUGE_PAGES.get() || size >= LARGE
+}
+
+/// Asks for huge pages on `len` bytes at `p` (a mapping of ours); refused advice changes nothing.
 #[cfg(target_os = "linux")]
 fn advise_huge(p: *mut libc::c_void, len: usize) {
-    if !(HUGE_PAGES.get() || len >= LARGE) {
-        return;
-    }
     // SAFETY: madvise only sets a flag on pages of a mapping we own; its result is ignored on
     // purpose (the mapping works either way).
     unsafe { libc::madvise(p, len, libc::MADV_HUGEPAGE) };
@@ -190,7 +207,9 @@ unsafe impl GlobalAlloc for HugePageAllocator {
                 // it was.
                 let p = unsafe { libc::mremap(ptr.cast(), old_len, new_len, 0) };
                 if p != libc::MAP_FAILED {
-                    advise_huge(p, new_len);
+                    if wants_huge(new_size) {
+                        advise_huge(p, new_len);
+                    }
                     return p.cast();
                 }
                 // Else a new aligned mapping, with the old pages moved to its start (not copied),
@@ -212,6 +231,10 @@ unsafe impl GlobalAlloc for HugePageAllocator {
                         libc::munmap(ptr.cast(), old_len);
                     }
                 }
+                // The moved pages keep their old advice: the whole block is advised anew.
+                if wants_huge(new_size) {
+                    advise_huge(new.cast(), new_len);
+                }
                 new
             }
             _ => {
@@ -231,7 +254,8 @@ unsafe impl GlobalAlloc for HugePageAllocator {
     }
 }
 
-#[cfg(test)]
+/// The mappings and their kernel flags are Linux's (elsewhere the allocator is the system's).
+#[cfg(all(test, target_os = "linux"))]
 mod tests {
     use super::*;
 
@@ -335,21 +359,38 @@ mod tests {
             (flags.split_whitespace().any(|f| f == "hg"), flags)
         };
         let (medium, grown) = (2 * HUGE_MIN, 5 * HUGE_MIN);
+        // Made outside, grown inside: moved (a block made after it takes the pages behind it),
+        // and in place (nothing behind it, where the kernel leaves room).
+        let (to_move, blocker) = (block(medium), block(medium));
+        let in_place = block(medium);
         let marked = on_huge_pages(|| {
             let outer = block(medium);
             let inner = on_huge_pages(|| block(medium));
             let after_inner = block(medium);
-            // Grown there, in place or moved to a new mapping.
-            // SAFETY: `inner` is a block of ours with its layout.
-            let moved = unsafe { a.realloc(inner.0, inner.1, grown) };
-            [outer, after_inner, (moved, layout(grown))]
+            // SAFETY: blocks of ours with their layouts.
+            let (moved, grown_in_place) = unsafe {
+                (
+                    a.realloc(to_move.0, to_move.1, grown),
+                    a.realloc(in_place.0, in_place.1, grown),
+                )
+            };
+            [
+                outer,
+                inner,
+                after_inner,
+                (moved, layout(grown)),
+                (grown_in_place, layout(grown)),
+            ]
         });
-        let others = [block(medium), block(LARGE), block(MAP_MIN / 2)];
-        for (p, _) in &marked {
-            let (hg, flags) = huge(*p);
-            assert!(hg, "a block made inside on_huge_pages: {flags}");
+        let others = [blocker, block(medium), block(LARGE), block(MAP_MIN / 2)];
+        for (p, l) in &marked {
+            // Both ends: a grown block's old pages and its new ones.
+            for at in [*p, p.wrapping_add(l.size() - 1)] {
+                let (hg, flags) = huge(at);
+                assert!(hg, "a block made or grown inside on_huge_pages: {flags}");
+            }
         }
-        let expected = [false, true, false];
+        let expected = [false, false, true, false];
         for ((p, l), want) in others.iter().zip(expected) {
             let (hg, flags) = huge(*p);
             assert_eq!(

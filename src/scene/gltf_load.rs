@@ -229,10 +229,7 @@ pub fn load_gltf_bytes_allowing(
         texture_map: std::collections::HashMap::new(),
     };
 
-    // Sized once (no growth), on huge pages: rendering reads the triangles at random. Where the
-    // declared count cannot be reserved, the list grows as the primitives are read instead.
     let (mut triangles, mut uvs) = (Vec::new(), Vec::new());
-    crate::alloc::on_huge_pages(|| triangles.try_reserve_exact(declared as usize)).ok();
     let mut stats = LoadStats::default();
     let mut cameras = Vec::new();
     let mut punctual = Vec::new();
@@ -544,6 +541,9 @@ impl Loader<'_> {
             ));
         }
         let indices = triangle_list(mode, indices);
+        // Grown for the triangles read (never for a count the file only declares), on huge pages:
+        // rendering reads them at random.
+        crate::alloc::on_huge_pages(|| out.reserve(indices.len() / 3));
 
         // Texture coordinates are kept from the first primitive with a textured material on,
         // the triangles before it given zeros (their materials read none): an untextured scene

@@ -108,7 +108,7 @@ pub struct Sampler {
     k: u64,
     n: u64,
     /// Whether the CPU has AVX2 and FMA (`has_avx2_fma`; a packet's numbers are then drawn
-    /// together: `drawn`).
+    /// together: `drawn`, `packet`).
     avx2: bool,
 }
 
@@ -387,7 +387,7 @@ impl CameraSample<'_> {
     #[inline]
     pub fn bsdf_lobe(&self, j: u32) -> f32 {
         if let (Source::Drawn(d), 0) = (&self.source, j) {
-            return d.bsdf_lobe;
+            return d.bsdf.lobe;
         }
         if let Source::Packet(lane) = &self.source {
             return lane.bsdf(j).lobe;
@@ -409,9 +409,9 @@ impl CameraSample<'_> {
     pub fn bsdf_numbers(&self, j: u32) -> BsdfNumbers {
         if let (Source::Drawn(d), 0) = (&self.source, j) {
             return BsdfNumbers {
-                lobe: d.bsdf_lobe,
-                direction: d.bsdf_direction,
-                drawn_cosine: Some(d.bsdf_cosine),
+                lobe: d.bsdf.lobe,
+                direction: d.bsdf.direction,
+                drawn_cosine: Some(d.bsdf.cosine_direction),
             };
         }
         if let Source::Packet(lane) = &self.source {
@@ -419,7 +419,7 @@ impl CameraSample<'_> {
             return BsdfNumbers {
                 lobe: b.lobe,
                 direction: b.direction,
-                drawn_cosine: Some(b.cosine),
+                drawn_cosine: Some(b.cosine_direction),
             };
         }
         let sm = &self.pixel.sampler;
@@ -444,10 +444,10 @@ impl CameraSample<'_> {
     #[inline]
     pub fn bsdf_cosine_direction(&self, j: u32) -> glam::Vec3 {
         if let (Source::Drawn(d), 0) = (&self.source, j) {
-            return d.bsdf_cosine;
+            return d.bsdf.cosine_direction;
         }
         if let Source::Packet(lane) = &self.source {
-            return lane.bsdf(j).cosine;
+            return lane.bsdf(j).cosine_direction;
         }
         crate::sampling::warp::cosine_hemisphere(self.bsdf_direction(j))
     }
@@ -456,7 +456,7 @@ impl CameraSample<'_> {
     #[inline]
     pub fn bsdf_direction(&self, j: u32) -> [f32; 2] {
         if let (Source::Drawn(d), 0) = (&self.source, j) {
-            return d.bsdf_direction;
+            return d.bsdf.direction;
         }
         if let Source::Packet(lane) = &self.source {
             return lane.bsdf(j).direction;

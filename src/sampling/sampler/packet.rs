@@ -4,7 +4,7 @@
 //! lanes when the packet is formed, for every light choice, light point and BSDF slot, bit for
 //! bit the numbers each sample would make alone, and kept in the tile's [`PacketNumbers`]; each
 //! `CameraSample` then reads its own lane there. (K = N = 1 keeps its numbers in the sample
-//! itself: `drawn`.)
+//! itself: `drawn`, which shares the lane helpers here.)
 
 use glam::Vec3;
 
@@ -40,7 +40,7 @@ pub struct PacketNumbers {
 pub(super) struct BsdfSlot {
     pub(super) lobe: f32,
     pub(super) direction: [f32; 2],
-    pub(super) cosine: Vec3,
+    pub(super) cosine_direction: Vec3,
 }
 
 /// A camera sample's place in its packet's numbers.
@@ -53,28 +53,37 @@ pub(super) struct Lane<'a> {
 impl Lane<'_> {
     #[inline(always)]
     pub(super) fn jitter(&self) -> [f32; 2] {
-        self.numbers.jitter[self.lane & (LANES - 1)]
+        self.numbers.jitter[self.lane()]
     }
 
     #[inline(always)]
     pub(super) fn light_choice(&self, k: u32) -> f64 {
-        self.numbers.light_choice[slot(k as usize)][self.lane & (LANES - 1)]
+        debug_assert!((k as usize) < self.numbers.k);
+        self.numbers.light_choice[slot(k as usize)][self.lane()]
     }
 
     #[inline(always)]
     pub(super) fn light_point(&self, k: u32, n: u32) -> [f32; 2] {
+        debug_assert!((k as usize) < self.numbers.k && (n as usize) < self.numbers.n);
         let at = slot(k as usize * self.numbers.n + n as usize);
-        self.numbers.light_point[at][self.lane & (LANES - 1)]
+        self.numbers.light_point[at][self.lane()]
     }
 
     #[inline(always)]
     pub(super) fn bsdf(&self, j: u32) -> BsdfSlot {
-        self.numbers.bsdf[slot(j as usize)][self.lane & (LANES - 1)]
+        debug_assert!((j as usize) < self.numbers.k * self.numbers.n);
+        self.numbers.bsdf[slot(j as usize)][self.lane()]
+    }
+
+    /// The lane, masked as `slot` masks a slot (it is below `LANES`).
+    #[inline(always)]
+    fn lane(&self) -> usize {
+        self.lane & (LANES - 1)
     }
 }
 
-/// A slot index as the arrays hold it: callers ask for slots below K·N ≤ `MAX_SLOTS`, which the
-/// mask leaves as they are.
+/// A slot index as the arrays hold it: callers ask for slots below K·N ≤ `MAX_SLOTS` (checked in
+/// debug builds), which the mask leaves as they are, so the arrays' bounds need no check.
 #[inline(always)]
 fn slot(index: usize) -> usize {
     index & (MAX_SLOTS - 1)
@@ -103,6 +112,11 @@ pub(super) fn draw_slots<'a>(samples: &mut [CameraSample<'a>], numbers: &'a mut 
     };
     let sm = &last.pixel.sampler;
     let (k, n) = (sm.k as usize, sm.n as usize);
+    debug_assert_eq!(
+        (k, n),
+        (numbers.k, numbers.n),
+        "numbers made for this render"
+    );
     if samples.len() > LANES || !sm.avx2 || (k, n) != (numbers.k, numbers.n) || k * n > MAX_SLOTS {
         return;
     }
@@ -128,14 +142,15 @@ pub(super) fn draw_slots<'a>(samples: &mut [CameraSample<'a>], numbers: &'a mut 
     }
 }
 
+/// The lane helpers of the draws, here and in `drawn`.
 #[cfg(target_arch = "x86_64")]
-mod lanes {
+pub(super) mod lanes {
     use std::arch::x86_64::{_mm256_add_epi32, _mm256_mullo_epi32, _mm256_set1_epi32};
 
     use super::super::hash_avx2::hashes;
     use super::super::independent::halves;
     use super::super::sobol::{GroupSeeds, SeedLanes};
-    use super::super::sobol_avx2::{bits, load, sample_2d, sample_3d, units};
+    use super::super::sobol_avx2::{bits, load, sample_1d, sample_2d, sample_3d, units};
     use super::*;
     use crate::sampling::warp_avx2::cosine_hemisphere;
 
@@ -146,27 +161,50 @@ mod lanes {
     /// The CPU must support AVX2.
     #[target_feature(enable = "avx2")]
     #[inline]
-    unsafe fn bsdf_lanes(lobe: [f32; LANES], direction: [[f32; 2]; LANES]) -> [BsdfSlot; LANES] {
+    pub(in super::super) unsafe fn bsdf_lanes(
+        lobe: [f32; LANES],
+        direction: [[f32; 2]; LANES],
+    ) -> [BsdfSlot; LANES] {
         let cosine = cosine_hemisphere(&direction.map(|d| d[0]), &direction.map(|d| d[1]));
         std::array::from_fn(|lane| BsdfSlot {
             lobe: lobe[lane],
             direction: direction[lane],
-            cosine: Vec3::new(cosine.x[lane], cosine.y[lane], cosine.z[lane]),
+            cosine_direction: Vec3::new(cosine.x[lane], cosine.y[lane], cosine.z[lane]),
         })
     }
 
+    /// Lane i's camera sample: sample i, spare lanes repeating the last one.
+    #[inline(always)]
+    fn in_lane<'s, 'a>(samples: &'s [CameraSample<'a>], lane: usize) -> &'s CameraSample<'a> {
+        &samples[lane.min(samples.len() - 1)]
+    }
+
     /// Each lane's absolute index of point `slot` of a group with `per_sample` points per
-    /// camera sample (`PixelSampler::absolute`); spare lanes repeat the last sample.
-    fn indices(samples: &[CameraSample], per_sample: usize, slot: usize) -> [u64; LANES] {
-        std::array::from_fn(|i| {
-            let cs = &samples[i.min(samples.len() - 1)];
+    /// camera sample (`PixelSampler::absolute`).
+    pub(in super::super) fn indices(
+        samples: &[CameraSample],
+        per_sample: usize,
+        slot: usize,
+    ) -> [u64; LANES] {
+        std::array::from_fn(|lane| {
+            let cs = in_lane(samples, lane);
             cs.pixel.absolute(per_sample as u64, cs.s, slot as u64)
         })
     }
 
     /// Each lane's seed of dimension `dim`.
-    fn seeds(samples: &[CameraSample], dim: u64) -> [u64; LANES] {
-        std::array::from_fn(|i| samples[i.min(samples.len() - 1)].pixel.seeds[dim as usize])
+    pub(in super::super) fn seeds(samples: &[CameraSample], dim: u64) -> [u64; LANES] {
+        std::array::from_fn(|lane| in_lane(samples, lane).pixel.seeds[dim as usize])
+    }
+
+    /// Whether every index of the camera samples `camera` (their indices S) with `per_sample`
+    /// points each, up to S·per_sample + per_sample − 1, lies below 2^32, as the Sobol lanes
+    /// need.
+    pub(in super::super) fn sobol_fits(camera: &[u64; LANES], per_sample: usize) -> bool {
+        let end = |s: u64| (s + 1).checked_mul(per_sample as u64);
+        camera
+            .iter()
+            .all(|&s| end(s).is_some_and(|end| end <= 1 << 32))
     }
 
     /// `draw_slots` for the independent sampler: the numbers `get_1d`, `get_2d` and
@@ -181,8 +219,9 @@ mod lanes {
         let seed = |dim| seeds(samples, dim);
         let [jitter] = hashes(indices(samples, 1, 0), &[seed(PIXEL)]);
         numbers.jitter = jitter.map(unit_pair);
+        let choice_seed = [seed(LIGHT_CHOICE)];
         for slot in 0..k {
-            let [choice] = hashes(indices(samples, k, slot), &[seed(LIGHT_CHOICE)]);
+            let [choice] = hashes(indices(samples, k, slot), &choice_seed);
             numbers.light_choice[slot] = choice.map(unit_53);
         }
         // The light points and the BSDF slots share their indices S·K·N + slot.
@@ -196,11 +235,14 @@ mod lanes {
     }
 
     /// The seed lanes of Sobol groups `dims`: lanes of one pixel share its seeds, made once.
-    fn group_seeds<const G: usize>(samples: &[CameraSample], dims: [u64; G]) -> [SeedLanes; G] {
+    pub(in super::super) fn group_seeds<const G: usize>(
+        samples: &[CameraSample],
+        dims: [u64; G],
+    ) -> [SeedLanes; G] {
         let mut lanes = [SeedLanes::default(); G];
         let mut made: Option<(&PixelSampler, [GroupSeeds; G])> = None;
         for lane in 0..LANES {
-            let cs = &samples[lane.min(samples.len() - 1)];
+            let cs = in_lane(samples, lane);
             let groups = match made {
                 Some((pixel, groups)) if std::ptr::eq(pixel, cs.pixel) => groups,
                 _ => dims.map(|dim| GroupSeeds::of(cs.pixel.seeds[dim as usize])),
@@ -223,14 +265,9 @@ mod lanes {
         let (k, n) = (numbers.k, numbers.n);
         let kn = k * n;
         // Each lane's camera sample S; a group's index is S·per_sample + slot, the largest
-        // S·K·N + K·N − 1, which must lie below 2^32.
+        // S·K·N + K·N − 1.
         let camera = indices(samples, 1, 0);
-        let fits = |s: u64| {
-            (s + 1)
-                .checked_mul(kn as u64)
-                .is_some_and(|end| end <= 1 << 32)
-        };
-        if !camera.iter().all(|&s| fits(s)) {
+        if !sobol_fits(&camera, kn) {
             return false;
         }
         let s = load(camera.map(|i| i as u32));
@@ -238,23 +275,23 @@ mod lanes {
             let times = _mm256_mullo_epi32(s, _mm256_set1_epi32(per_sample as i32));
             _mm256_add_epi32(times, _mm256_set1_epi32(slot as i32))
         };
-        let [pixel, light, bsdf] = group_seeds(samples, [PIXEL, LIGHT_POINT, BSDF_DIRECTION]);
+        // LIGHT_CHOICE's seeds are read only where N > 1 (made for every pixel all the same).
+        let [pixel, light, bsdf, choice_group] =
+            group_seeds(samples, [PIXEL, LIGHT_POINT, BSDF_DIRECTION, LIGHT_CHOICE]);
         let [jx, jy] = sample_2d(at(1, 0), &pixel);
         let (jx, jy) = (units(jx), units(jy));
         numbers.jitter = std::array::from_fn(|lane| [jx[lane], jy[lane]]);
         // N = 1: a light's choice is the third coordinate of the point on it; else dimension
-        // 2's own point (the first coordinate of its group's).
-        let choice_group = (n > 1).then(|| group_seeds(samples, [LIGHT_CHOICE])[0]);
+        // 2's own one-dimensional point.
         let choice_seed = seeds(samples, if n > 1 { LIGHT_CHOICE } else { LIGHT_POINT });
         for slot in 0..k {
-            let choice = match &choice_group {
-                None => {
-                    let [x, y, z] = sample_3d(at(k, slot), &light);
-                    let (x, y) = (units(x), units(y));
-                    numbers.light_point[slot] = std::array::from_fn(|lane| [x[lane], y[lane]]);
-                    bits(z)
-                }
-                Some(seeds) => bits(sample_2d(at(k, slot), seeds)[0]),
+            let choice = if n > 1 {
+                bits(sample_1d(at(k, slot), &choice_group))
+            } else {
+                let [x, y, z] = sample_3d(at(k, slot), &light);
+                let (x, y) = (units(x), units(y));
+                numbers.light_point[slot] = std::array::from_fn(|lane| [x[lane], y[lane]]);
+                bits(z)
             };
             numbers.light_choice[slot] = std::array::from_fn(|lane| {
                 let index = camera[lane] * k as u64 + slot as u64;

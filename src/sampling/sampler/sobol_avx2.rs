@@ -21,6 +21,16 @@ pub unsafe fn sample_3d(index: __m256i, seeds: &SeedLanes) -> [__m256i; 3] {
     [x, y, z]
 }
 
+/// The first coordinate of those points: `sobol::sample_1d` in each lane.
+///
+/// # Safety
+/// The CPU must support AVX2.
+#[target_feature(enable = "avx2")]
+#[inline]
+pub unsafe fn sample_1d(index: __m256i, seeds: &SeedLanes) -> __m256i {
+    laine_karras(reverse_bits(shuffled(index, seeds)), load(seeds.first))
+}
+
 /// The first two coordinates of those points: `sobol::sample_2d` in each lane.
 ///
 /// # Safety
