@@ -55,7 +55,9 @@ pub fn draw_together<'a>(samples: &mut [CameraSample<'a>], numbers: &'a mut Pack
 mod lanes {
     use super::super::hash_avx2::hashes;
     use super::super::independent::halves;
-    use super::super::packet::lanes::{bsdf_lanes, group_seeds, indices, seeds, sobol_fits};
+    use super::super::packet::lanes::{
+        bsdf_lanes, group_seeds, indices, low_words, seeds, sobol_fits, unit_pairs,
+    };
     use super::super::sobol_avx2::{bits, load, sample_2d, sample_3d, units};
     use super::*;
 
@@ -78,7 +80,8 @@ mod lanes {
         let dims = INDEPENDENT_DIMS.map(|dim| seeds(samples, dim));
         let [jitter, choice, point, lobe, direction] = hashes(indices(samples, 1, 0), &dims);
         let unit_pair = |h: u64| halves(h).map(to_f32);
-        let bsdf = bsdf_lanes(lobe.map(|h| to_f32(halves(h)[0])), direction.map(unit_pair));
+        let (x, y) = unit_pairs(&direction);
+        let bsdf = bsdf_lanes(&lobe.map(|h| to_f32(halves(h)[0])), &x, &y);
         for (lane, cs) in samples.iter_mut().enumerate() {
             cs.source = Source::Drawn(Drawn {
                 jitter: unit_pair(jitter[lane]),
@@ -100,15 +103,14 @@ mod lanes {
         if !sobol_fits(&camera, 1) {
             return;
         }
-        let all = load(camera.map(|i| i as u32));
+        let all = load(low_words(&camera));
         let [pixel, light, bsdf] = group_seeds(samples, SOBOL_GROUPS);
         let [jx, jy] = sample_2d(all, &pixel);
         let [lx, ly, lz] = sample_3d(all, &light);
         let [bx, by, bz] = sample_3d(all, &bsdf);
         let (jitter, point) = ([units(jx), units(jy)], [units(lx), units(ly)]);
         let choice = bits(lz);
-        let (bx, by) = (units(bx), units(by));
-        let bsdf = bsdf_lanes(units(bz), std::array::from_fn(|lane| [bx[lane], by[lane]]));
+        let bsdf = bsdf_lanes(&units(bz), &units(bx), &units(by));
         for (lane, cs) in samples.iter_mut().enumerate() {
             let seed = cs.pixel.seeds[LIGHT_POINT as usize];
             cs.source = Source::Drawn(Drawn {

@@ -154,23 +154,45 @@ pub(super) mod lanes {
     use super::*;
     use crate::sampling::warp_avx2::cosine_hemisphere;
 
-    /// Eight BSDF slots from their lobe numbers and direction numbers (lane by lane), with the
-    /// directions' cosine-hemisphere warps.
+    /// Eight BSDF slots from their lobe numbers and direction numbers (x and y, lane by lane),
+    /// with the directions' cosine-hemisphere warps.
     ///
     /// # Safety
     /// The CPU must support AVX2.
     #[target_feature(enable = "avx2")]
     #[inline]
     pub(in super::super) unsafe fn bsdf_lanes(
-        lobe: [f32; LANES],
-        direction: [[f32; 2]; LANES],
+        lobe: &[f32; LANES],
+        x: &[f32; LANES],
+        y: &[f32; LANES],
     ) -> [BsdfSlot; LANES] {
-        let cosine = cosine_hemisphere(&direction.map(|d| d[0]), &direction.map(|d| d[1]));
+        let cosine = cosine_hemisphere(x, y);
         std::array::from_fn(|lane| BsdfSlot {
             lobe: lobe[lane],
-            direction: direction[lane],
+            direction: [x[lane], y[lane]],
             cosine_direction: Vec3::new(cosine.x[lane], cosine.y[lane], cosine.z[lane]),
         })
+    }
+
+    /// Each lane's pair of 24-bit fractions from its 64-bit hash (`independent::halves`), as two
+    /// lanes of x and of y.
+    #[inline(always)]
+    pub(in super::super) fn unit_pairs(hashes: &[u64; LANES]) -> ([f32; LANES], [f32; LANES]) {
+        let (mut x, mut y) = ([0.0; LANES], [0.0; LANES]);
+        for lane in 0..LANES {
+            [x[lane], y[lane]] = halves(hashes[lane]).map(to_f32);
+        }
+        (x, y)
+    }
+
+    /// The low 32 bits of each lane's index (the Sobol lanes' indices, below 2^32: `sobol_fits`).
+    #[inline(always)]
+    pub(in super::super) fn low_words(index: &[u64; LANES]) -> [u32; LANES] {
+        let mut words = [0; LANES];
+        for lane in 0..LANES {
+            words[lane] = index[lane] as u32;
+        }
+        words
     }
 
     /// Lane i's camera sample: sample i, spare lanes repeating the last one.
@@ -181,6 +203,7 @@ pub(super) mod lanes {
 
     /// Each lane's absolute index of point `slot` of a group with `per_sample` points per
     /// camera sample (`PixelSampler::absolute`).
+    #[inline(always)]
     pub(in super::super) fn indices(
         samples: &[CameraSample],
         per_sample: usize,
@@ -193,6 +216,7 @@ pub(super) mod lanes {
     }
 
     /// Each lane's seed of dimension `dim`.
+    #[inline(always)]
     pub(in super::super) fn seeds(samples: &[CameraSample], dim: u64) -> [u64; LANES] {
         std::array::from_fn(|lane| in_lane(samples, lane).pixel.seeds[dim as usize])
     }
@@ -200,6 +224,7 @@ pub(super) mod lanes {
     /// Whether every index of the camera samples `camera` (their indices S) with `per_sample`
     /// points each, up to S·per_sample + per_sample − 1, lies below 2^32, as the Sobol lanes
     /// need.
+    #[inline(always)]
     pub(in super::super) fn sobol_fits(camera: &[u64; LANES], per_sample: usize) -> bool {
         let end = |s: u64| (s + 1).checked_mul(per_sample as u64);
         camera
@@ -230,7 +255,8 @@ pub(super) mod lanes {
             let [point, lobe, direction] = hashes(indices(samples, kn, slot), &dims);
             numbers.light_point[slot] = point.map(unit_pair);
             let lobe = lobe.map(|h| to_f32(halves(h)[0]));
-            numbers.bsdf[slot] = bsdf_lanes(lobe, direction.map(unit_pair));
+            let (x, y) = unit_pairs(&direction);
+            numbers.bsdf[slot] = bsdf_lanes(&lobe, &x, &y);
         }
     }
 
@@ -270,7 +296,7 @@ pub(super) mod lanes {
         if !sobol_fits(&camera, kn) {
             return false;
         }
-        let s = load(camera.map(|i| i as u32));
+        let s = load(low_words(&camera));
         let at = |per_sample: usize, slot: usize| {
             let times = _mm256_mullo_epi32(s, _mm256_set1_epi32(per_sample as i32));
             _mm256_add_epi32(times, _mm256_set1_epi32(slot as i32))
@@ -308,8 +334,7 @@ pub(super) mod lanes {
         for j in 0..kn {
             let [x, y, z] = sample_3d(at(kn, j), &bsdf);
             let (x, y) = (units(x), units(y));
-            let direction = std::array::from_fn(|lane| [x[lane], y[lane]]);
-            numbers.bsdf[j] = bsdf_lanes(units(z), direction);
+            numbers.bsdf[j] = bsdf_lanes(&units(z), &x, &y);
         }
         true
     }
