@@ -8,8 +8,9 @@
 //! their ids, the scene's triangles, the lights and each triangle's light, the alias table, the
 //! light tree's nodes, power prefix and powers), and every small page it touches is a TLB entry; in
 //! a virtual machine each TLB miss walks two page tables. Those arrays are made inside
-//! [`on_huge_pages`], which marks the blocks the thread maps meanwhile. A very large block
-//! (`LARGE`) would take thousands of small-page faults, so it gets huge pages wherever it is made.
+//! [`on_huge_pages`], which marks the blocks the thread maps meanwhile (the film too: filled tile
+//! by tile, and made anew by every render of a process). A very large block (`LARGE`) would take
+//! thousands of small-page faults, so it gets huge pages wherever it is made.
 //! The other blocks, the builds' temporaries and the file's bytes, stay on small pages: a free huge
 //! page may just have been handed back to the hypervisor (a guest with free page reporting, as this
 //! machine's), and faulting it in again took about 2 ms. With every block of the 50k city on huge
