@@ -32,12 +32,13 @@ pub fn draw_together<'a>(samples: &mut [CameraSample<'a>], numbers: &'a mut Pack
     let Some(last) = samples.last() else {
         return;
     };
-    let sm = &last.pixel.sampler;
-    if sm.k * sm.n > 1 {
-        draw_slots(samples, numbers);
+    let sm = last.pixel.sampler;
+    if samples.len() > LANES || !sm.avx2 {
         return;
     }
-    if samples.len() > LANES || !sm.avx2 {
+    if sm.k * sm.n > 1 {
+        // SAFETY: the sampler's `avx2` is true only when the CPU reported AVX2 (`has_avx2_fma`).
+        unsafe { draw_slots(samples, numbers, &sm) };
         return;
     }
     #[cfg(target_arch = "x86_64")]

@@ -103,25 +103,29 @@ impl PacketNumbers {
     }
 }
 
-/// Draws the numbers of `samples` (at most `LANES`, all of a render with K·N > 1 and the
-/// sampler `numbers` was made for) into `numbers` and points each sample at its lane, where the
-/// module header says; else leaves them to be made one at a time.
-pub(super) fn draw_slots<'a>(samples: &mut [CameraSample<'a>], numbers: &'a mut PacketNumbers) {
-    let Some(last) = samples.last() else {
-        return;
-    };
-    let sm = &last.pixel.sampler;
+/// Draws the numbers of `samples` (at most `LANES`, all of a render with K·N > 1 whose sampler
+/// is `sm`, the one `numbers` was made for) into `numbers` and points each sample at its lane,
+/// where the module header says; else leaves them to be made one at a time (`draw_together`
+/// checks what the two draws share).
+///
+/// # Safety
+/// The CPU must support AVX2.
+pub(super) unsafe fn draw_slots<'a>(
+    samples: &mut [CameraSample<'a>],
+    numbers: &'a mut PacketNumbers,
+    sm: &Sampler,
+) {
     let (k, n) = (sm.k as usize, sm.n as usize);
     debug_assert_eq!(
         (k, n),
         (numbers.k, numbers.n),
         "numbers made for this render"
     );
-    if samples.len() > LANES || !sm.avx2 || (k, n) != (numbers.k, numbers.n) || k * n > MAX_SLOTS {
+    if (k, n) != (numbers.k, numbers.n) || k * n > MAX_SLOTS {
         return;
     }
     #[cfg(target_arch = "x86_64")]
-    // SAFETY: the sampler's `avx2` is true only when the CPU reported AVX2 (`has_avx2_fma`).
+    // SAFETY: the caller's.
     let drawn = unsafe {
         match sm.kind {
             SamplerKind::Sobol => lanes::draw_sobol(samples, numbers),
