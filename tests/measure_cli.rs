@@ -147,6 +147,25 @@ fn bench_reports_every_configuration_and_reuses_its_cached_reference() {
     assert_eq!(md.lines().count(), 2 + rows.len());
     let table = String::from_utf8_lossy(&first.stdout);
     assert!(table.contains("power:mis:4x1"), "{table}");
+    // Each selector's one-off build: reported with every row that uses it (one build for all of
+    // them, so the same figures), on its own line after the table, and in the CSV.
+    for selector in ["uniform", "power"] {
+        let mine: Vec<_> = rows.iter().filter(|r| r["selector"] == selector).collect();
+        for field in ["selector_build_seconds", "selector_build_cpu_seconds"] {
+            let v = f(mine[0], field);
+            assert!(v.is_finite() && v >= 0.0, "{field} = {v} in {}", mine[0]);
+            assert!(mine.iter().all(|r| r[field] == mine[0][field]), "{field}");
+        }
+    }
+    let builds = table
+        .lines()
+        .find(|l| l.starts_with("selector builds"))
+        .unwrap_or_else(|| panic!("no selector builds line in {table}"));
+    assert!(
+        builds.contains("uniform ") && builds.contains("power "),
+        "{builds}"
+    );
+    assert!(csv.lines().next().unwrap().contains("selector build cpu s"));
 
     let plot = std::fs::read_to_string(&svg).unwrap();
     for text in [

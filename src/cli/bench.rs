@@ -25,7 +25,7 @@ use crate::measure::plot::{plot_relmse_vs_seconds, write_error_image};
 use crate::measure::progressive::Clock;
 use crate::measure::report::{csv, markdown, table, write_json, write_text};
 use crate::measure::EstimatorChoice;
-use crate::select::SelectorKind;
+use crate::select::{SelectorKind, DEFAULT_FAR_SIN};
 
 #[derive(Args, Debug, Clone)]
 pub struct BenchArgs {
@@ -353,6 +353,7 @@ pub fn run_bench(args: &BenchArgs) -> anyhow::Result<()> {
     let report = report_rows(&rows, &external);
 
     print!("{}", table(&report));
+    print_selector_builds(&rows);
     print_reference_notes(&rows, &reference);
     print_heavy_tails(&rows, &external);
     print_rates(&rows);
@@ -489,6 +490,38 @@ fn print_heavy_tails(rows: &[BenchRow], external: &[ExternalRow]) {
 
 /// The log-log slope of MSE against spp with its 95% interval, per configuration measured at
 /// two or more spp, over all and over lit-surface pixels.
+/// Each selector's one-off build, which the renders' seconds leave out: it is paid once per
+/// image, so at low spp it can weigh as much as the render (the light tree on 50,000 lights).
+fn print_selector_builds(rows: &[BenchRow]) {
+    use clap::ValueEnum;
+    let mut builds: Vec<String> = Vec::new();
+    for r in rows {
+        let name = r
+            .selector
+            .to_possible_value()
+            .map_or("?".into(), |v| v.get_name().to_owned());
+        // The far-lane sine as the configuration labels give it.
+        let far = if r.selector == SelectorKind::Bvh && r.far_sin != DEFAULT_FAR_SIN {
+            format!(":far{}", r.far_sin)
+        } else {
+            String::new()
+        };
+        let cpu = r
+            .selector_build_cpu_seconds
+            .map_or(String::new(), |c| format!(", {c:.3} CPU s"));
+        let build = format!("{name}{far} {:.3} s{cpu}", r.selector_build_seconds);
+        if !builds.contains(&build) {
+            builds.push(build);
+        }
+    }
+    if !builds.is_empty() {
+        println!(
+            "selector builds (once before a selector's renders, not in the seconds above): {}",
+            builds.join("; ")
+        );
+    }
+}
+
 fn print_rates(rows: &[BenchRow]) {
     let mut configs = Vec::new();
     for r in rows {

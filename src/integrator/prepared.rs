@@ -7,6 +7,7 @@ use super::{Estimator, Strategy};
 use crate::accel::Accel;
 use crate::lights::Lights;
 use crate::material::Brdf;
+use crate::measure::cpu_time::{cpu_seconds_between, process_cpu_seconds};
 use crate::scene::memory::lights_before_geometry;
 use crate::scene::Scene;
 use crate::select::{LightSelector, SelectorKind, DEFAULT_FAR_SIN};
@@ -27,6 +28,10 @@ pub struct PreparedScene {
     /// The part of `light_seconds` spent building the selector (the light tree, or the alias
     /// table) once the lights were made.
     pub selector_seconds: f64,
+    /// The process's CPU seconds (all threads) over the selector's build, which runs alone:
+    /// the one-off cost a render with this selector pays before its first sample (None where
+    /// the system gives no CPU time).
+    pub selector_cpu_seconds: Option<f64>,
 }
 
 impl PreparedScene {
@@ -48,18 +53,22 @@ impl PreparedScene {
             let t = Instant::now();
             let mut lights = Lights::from_scene(scene);
             let made = t.elapsed().as_secs_f64();
+            let cpu = process_cpu_seconds();
             let selector = LightSelector::build_with(kind, &mut lights, far_sin);
+            let cpu = cpu_seconds_between(cpu, process_cpu_seconds());
             let total = t.elapsed().as_secs_f64();
-            (lights, selector, (total, total - made))
+            (lights, selector, (total, total - made, cpu))
         };
-        let ((accel, bvh_seconds), (lights, selector, (light_seconds, selector_seconds))) =
-            if lights_before_geometry(scene.emissive_triangles() as u64) {
-                let lights = build_lights(&scene);
-                (build_accel(&scene), lights)
-            } else {
-                let accel = build_accel(&scene);
-                (accel, build_lights(&scene))
-            };
+        let (
+            (accel, bvh_seconds),
+            (lights, selector, (light_seconds, selector_seconds, selector_cpu_seconds)),
+        ) = if lights_before_geometry(scene.emissive_triangles() as u64) {
+            let lights = build_lights(&scene);
+            (build_accel(&scene), lights)
+        } else {
+            let accel = build_accel(&scene);
+            (accel, build_lights(&scene))
+        };
         let brdfs = scene.materials.iter().map(Brdf::new).collect();
         PreparedScene {
             scene,
@@ -70,6 +79,7 @@ impl PreparedScene {
             bvh_seconds,
             light_seconds,
             selector_seconds,
+            selector_cpu_seconds,
         }
     }
 

@@ -69,6 +69,12 @@ pub struct BenchRow {
     /// the system does not say): their cost in CPU time, which, unlike `seconds`, does not grow
     /// while other jobs hold the cores.
     pub cpu_seconds: Option<f64>,
+    /// The one-off build of this configuration's light selector (the light tree, the alias
+    /// table), wall seconds: made once before its renders, for every configuration with the
+    /// same selector, and not counted in `seconds` or `cpu_seconds`.
+    pub selector_build_seconds: f64,
+    /// The same build's CPU seconds, all threads (None where the system does not say).
+    pub selector_build_cpu_seconds: Option<f64>,
     /// Rays traced per render (mean over repeats).
     pub rays: u64,
     pub mse: f64,
@@ -268,7 +274,8 @@ pub fn run(
                         }
                     })
                     .collect();
-                let row = aggregate(*e, plan, runs, errors.finish(against));
+                let build = (prepared.selector_seconds, prepared.selector_cpu_seconds);
+                let row = aggregate(*e, plan, runs, errors.finish(against), build);
                 on_row(&row);
                 rows.push(row);
             }
@@ -277,7 +284,15 @@ pub fn run(
     rows
 }
 
-fn aggregate(e: EstimatorChoice, plan: &BenchPlan, runs: Vec<Run>, errors: Errors) -> BenchRow {
+/// One configuration's row from its renders, their errors and its selector's `build` (wall and
+/// CPU seconds).
+fn aggregate(
+    e: EstimatorChoice,
+    plan: &BenchPlan,
+    runs: Vec<Run>,
+    errors: Errors,
+    build: (f64, Option<f64>),
+) -> BenchRow {
     let r = runs.len() as f64;
     let mean = |f: fn(&Run) -> f64| runs.iter().map(f).sum::<f64>() / r;
     let mut secs: Vec<f64> = runs.iter().map(|x| x.seconds).collect();
@@ -302,6 +317,8 @@ fn aggregate(e: EstimatorChoice, plan: &BenchPlan, runs: Vec<Run>, errors: Error
         seconds_min: secs.iter().cloned().fold(f64::INFINITY, f64::min),
         seconds_max: secs.iter().cloned().fold(0.0, f64::max),
         cpu_seconds,
+        selector_build_seconds: build.0,
+        selector_build_cpu_seconds: build.1,
         rays: (mean(|x| x.rays as f64)).round() as u64,
         mse,
         mse_interval,

@@ -12,13 +12,15 @@ use crate::image::write_atomically;
 
 /// Column headers and one row's cells, shared by the table, CSV and Markdown; the table
 /// shows only the columns marked for it.
-const HEADERS: [(&str, bool); 34] = [
+const HEADERS: [(&str, bool); 36] = [
     ("config", true),
     ("spp", true),
     ("seconds", true),
     ("s min", false),
     ("s max", false),
     ("cpu s", true),
+    ("selector build s", false),
+    ("selector build cpu s", false),
     ("Mrays", false),
     ("MSE", true),
     ("MSE 95% lo", false),
@@ -49,7 +51,7 @@ const HEADERS: [(&str, bool); 34] = [
     ("external", false),
 ];
 
-fn cells(row: &ReportRow) -> [String; 34] {
+fn cells(row: &ReportRow) -> [String; 36] {
     let e = |x: f64| format!("{x:.3e}");
     let opt = |x: Option<f64>| x.map_or("-".into(), e);
     let ends = |i: Option<[f64; 2]>| i.map_or(("-".into(), "-".into()), |[a, b]| (e(a), e(b)));
@@ -86,6 +88,8 @@ fn cells(row: &ReportRow) -> [String; 34] {
             short(r.seconds_min),
             short(r.seconds_max),
             r.cpu_seconds.map_or("-".into(), short),
+            short(r.selector_build_seconds),
+            r.selector_build_cpu_seconds.map_or("-".into(), short),
             short(r.rays as f64 / 1e6),
             a,
             b,
@@ -120,6 +124,8 @@ fn cells(row: &ReportRow) -> [String; 34] {
             row.label(),
             x.spp.map_or("-".into(), |s| s.to_string()),
             x.seconds.map_or("-".into(), short),
+            "-".into(),
+            "-".into(),
             "-".into(),
             "-".into(),
             "-".into(),
