@@ -603,7 +603,6 @@ fn lane<const GLOSSY: bool, const RECEIVER: bool, const FULL_CONES: bool>(
     };
     let value = if value < f32::MAX { value } else { f32::MAX };
     let value = max(value, f32::MIN_POSITIVE);
-    // A whole-sphere cone (cos θo = −1) is never narrower than `FAR_COS`.
-    let far = !FULL_CONES & !GLOSSY & (sin_b < far_sin) & (cos_o > FAR_COS);
+    let far = !GLOSSY & (sin_b < far_sin) & (cos_o > FAR_COS);
     (if reject { 0.0 } else { value }, far)
 }
