@@ -16,16 +16,16 @@ use super::{BadInput, UsageError};
 use crate::image::{check_samples, read_exr_rgb};
 use crate::measure::bench::{
     apply_baseline, estimator_label, external_row, flag_heavy_tails, report_rows, run,
-    split_baseline, target_answers, BenchPlan, BenchRow, ExternalRow, TargetAnswer,
+    selector_label, split_baseline, target_answers, BenchPlan, BenchRow, ExternalRow, TargetAnswer,
 };
 use crate::measure::cpu_time::process_cpu_seconds;
 use crate::measure::errors::Against;
 use crate::measure::fit::{fit_loglog, EXTRAPOLATION_FACTOR, MAX_INTERVAL_RATIO};
 use crate::measure::plot::{plot_relmse_vs_seconds, write_error_image};
 use crate::measure::progressive::Clock;
-use crate::measure::report::{csv, markdown, table, write_json, write_text};
+use crate::measure::report::{csv, markdown, short, table, write_json, write_text};
 use crate::measure::EstimatorChoice;
-use crate::select::{SelectorKind, DEFAULT_FAR_SIN};
+use crate::select::SelectorKind;
 
 #[derive(Args, Debug, Clone)]
 pub struct BenchArgs {
@@ -488,28 +488,19 @@ fn print_heavy_tails(rows: &[BenchRow], external: &[ExternalRow]) {
     }
 }
 
-/// The log-log slope of MSE against spp with its 95% interval, per configuration measured at
-/// two or more spp, over all and over lit-surface pixels.
 /// Each selector's one-off build, which the renders' seconds leave out: it is paid once per
 /// image, so at low spp it can weigh as much as the render (the light tree on 50,000 lights).
 fn print_selector_builds(rows: &[BenchRow]) {
-    use clap::ValueEnum;
     let mut builds: Vec<String> = Vec::new();
     for r in rows {
-        let name = r
-            .selector
-            .to_possible_value()
-            .map_or("?".into(), |v| v.get_name().to_owned());
-        // The far-lane sine as the configuration labels give it.
-        let far = if r.selector == SelectorKind::Bvh && r.far_sin != DEFAULT_FAR_SIN {
-            format!(":far{}", r.far_sin)
-        } else {
-            String::new()
-        };
         let cpu = r
             .selector_build_cpu_seconds
-            .map_or(String::new(), |c| format!(", {c:.3} CPU s"));
-        let build = format!("{name}{far} {:.3} s{cpu}", r.selector_build_seconds);
+            .map_or(String::new(), |c| format!(", {} CPU s", short(c)));
+        let build = format!(
+            "{} {} s{cpu}",
+            selector_label(r.selector, r.far_sin),
+            short(r.selector_build_seconds)
+        );
         if !builds.contains(&build) {
             builds.push(build);
         }
@@ -522,6 +513,8 @@ fn print_selector_builds(rows: &[BenchRow]) {
     }
 }
 
+/// The log-log slope of MSE against spp with its 95% interval, per configuration measured at
+/// two or more spp, over all and over lit-surface pixels.
 fn print_rates(rows: &[BenchRow]) {
     let mut configs = Vec::new();
     for r in rows {

@@ -157,18 +157,32 @@ pub fn estimator_label(e: &EstimatorChoice) -> String {
     } else {
         String::new()
     };
-    let far = if e.selector == SelectorKind::Bvh && e.far_sin != DEFAULT_FAR_SIN {
-        format!(":far{}", e.far_sin)
-    } else {
-        String::new()
-    };
     format!(
-        "{}:{}:{}x{}{m}{far}{sampler}",
+        "{}:{}:{}x{}{m}{}{sampler}",
         name(e.selector.to_possible_value()),
         name(e.strategy.to_possible_value()),
         e.k,
-        e.n
+        e.n,
+        far_suffix(e.selector, e.far_sin)
     )
+}
+
+/// `:farS` for `bvh` with a far-lane sine S other than the default, else nothing.
+fn far_suffix(selector: SelectorKind, far_sin: f32) -> String {
+    if selector == SelectorKind::Bvh && far_sin != DEFAULT_FAR_SIN {
+        format!(":far{far_sin}")
+    } else {
+        String::new()
+    }
+}
+
+/// A selector as the configuration labels name it: `selector[:farS]`.
+pub fn selector_label(selector: SelectorKind, far_sin: f32) -> String {
+    use clap::ValueEnum;
+    let name = selector
+        .to_possible_value()
+        .map_or("?".into(), |v| v.get_name().to_owned());
+    format!("{name}{}", far_suffix(selector, far_sin))
 }
 
 /// A `--baseline` value split into its configuration label and the spp it pins, if any: a

@@ -162,7 +162,7 @@ fn cells(row: &ReportRow) -> [String; 36] {
 }
 
 /// Three decimals from 0.1 up, else three significant digits in scientific notation.
-fn short(x: f64) -> String {
+pub fn short(x: f64) -> String {
     if x >= 0.1 || x == 0.0 {
         format!("{x:.3}")
     } else {

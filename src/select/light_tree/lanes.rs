@@ -262,15 +262,7 @@ pub(super) fn importances(
 ) -> LaneValues {
     // Each lane decoded where its importance is computed: the decoded bounds never go through
     // memory.
-    lane_importances(
-        |k| LaneBounds::decode(node, k),
-        false,
-        p,
-        n,
-        lobe,
-        near,
-        far_sin,
-    )
+    lane_importances::<false>(|k| LaneBounds::decode(node, k), p, n, lobe, near, far_sin)
 }
 
 /// [`importances`] of a node already decoded (the same bits).
@@ -283,23 +275,19 @@ pub(super) fn decoded_importances(
     near: Option<NearTerms>,
     far_sin: f32,
 ) -> LaneValues {
-    lane_importances(
-        |k| lanes.lane(k),
-        lanes.full_cones,
-        p,
-        n,
-        lobe,
-        near,
-        far_sin,
-    )
+    let bounds = |k| lanes.lane(k);
+    if lanes.full_cones {
+        lane_importances::<true>(bounds, p, n, lobe, near, far_sin)
+    } else {
+        lane_importances::<false>(bounds, p, n, lobe, near, far_sin)
+    }
 }
 
-/// The eight lanes' importances from their bounds `bounds(k)`; `full_cones`: every lane in use
+/// The eight lanes' importances from their bounds `bounds(k)`; `FULL_CONES`: every lane in use
 /// has a normal cone of the whole sphere ([`Decoded::full_cones`]).
 #[inline(always)]
-fn lane_importances(
+fn lane_importances<const FULL_CONES: bool>(
     bounds: impl Fn(usize) -> LaneBounds,
-    full_cones: bool,
     p: Vec3,
     n: Vec3,
     lobe: &Lobe,
@@ -319,24 +307,7 @@ fn lane_importances(
         directed_floor: 0.0,
     });
     let near = (&plain, &directed, directed_floor);
-    if full_cones {
-        lanes_of_kind::<true>(&bounds, p, n, lobe, use_near, near, far_sin)
-    } else {
-        lanes_of_kind::<false>(&bounds, p, n, lobe, use_near, near, far_sin)
-    }
-}
-
-/// [`lane_importances`] with every lane's normal cone the whole sphere or not (`FULL_CONES`).
-#[inline(always)]
-fn lanes_of_kind<const FULL_CONES: bool>(
-    bounds: &impl Fn(usize) -> LaneBounds,
-    p: Vec3,
-    n: Vec3,
-    lobe: &Lobe,
-    use_near: bool,
-    near: (&[f32; LANES], &[f32; LANES], f32),
-    far_sin: f32,
-) -> LaneValues {
+    let bounds = &bounds;
     // The lobe factor is 1 exactly without a gain: a receiver without a lobe skips it. Each case
     // is compiled on its own, so that no choice between them is left in the lanes.
     match (lobe.gain > 0.0, n != Vec3::ZERO) {
@@ -383,7 +354,7 @@ fn lanes<const GLOSSY: bool, const RECEIVER: bool, const FULL_CONES: bool>(
 
 /// A wide node's lane bounds in f32, one array per field: each lane's bounding sphere (centre,
 /// radius), power centre, cone axis (length within 1.5e-5 of 1, 2.7e-6 on average), cos θo,
-/// cos θe and signed Φ.
+/// cos θe, signed Φ and σ², and whether every cone is the whole sphere.
 #[derive(Clone, Debug)]
 pub(super) struct Decoded {
     pub(super) centre: [[f32; LANES]; 3],
@@ -395,9 +366,12 @@ pub(super) struct Decoded {
     pub(super) signed_phi: [f32; LANES],
     pub(super) spread_sq: [f32; LANES],
     /// Every lane in use (Φ ≠ 0) has cos θo = −1: its lights face every way, so E = 1 and the
-    /// emitter rejects nothing at any receiver, and `lane` skips that arithmetic (the same bits
-    /// wherever |p − c|² is finite). As a rule the root's lanes, each over a block of a city or
-    /// a town (callgrind, bvh + mis on the Lambert 50k city: 106 instructions a camera sample).
+    /// emitter rejects nothing at any receiver, and `lane` skips that arithmetic. The same bits
+    /// need cos θw ≥ −1 in f32 too, which holds for a two-sided lane (folded to ≥ 0) and for the
+    /// exact axis (0, 0, ≤ 1) a whole-sphere cone is coded with, not for the axis of a cone
+    /// widened to π (up to 1.5e-5 longer than 1), wherever |p − c|² is a normal f32. As a rule
+    /// the root's lanes, each over a block of a city or a town (callgrind, bvh + mis on the
+    /// Lambert 50k city: 103 instructions a camera sample).
     pub(super) full_cones: bool,
 }
 
@@ -429,7 +403,12 @@ impl Decoded {
             d.signed_phi[k] = b.signed_phi;
             d.spread_sq[k] = b.spread_sq;
         }
-        d.full_cones = (0..LANES).all(|k| d.signed_phi[k] == 0.0 || d.cos_o[k] == -1.0);
+        d.full_cones = (0..LANES).all(|k| {
+            let exact_axis =
+                d.axis[0][k] == 0.0 && d.axis[1][k] == 0.0 && d.axis[2][k].abs() <= 1.0;
+            let whole = d.cos_o[k] == -1.0 && (d.signed_phi[k] < 0.0 || exact_axis);
+            d.signed_phi[k] == 0.0 || whole
+        });
         d
     }
 

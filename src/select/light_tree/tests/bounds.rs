@@ -243,6 +243,54 @@ fn kept_decoded_nodes_give_the_same_importances_as_their_codes() {
     );
 }
 
+/// A whole-sphere cone (cos θo code 0) whose axis is coded slightly longer than 1 (a cone
+/// widened to π keeps its own axis) gives cos θw < −1 just behind it, where the emitter term
+/// of the codes' path exceeds 1: such a lane must not take the whole-sphere shortcut. The exact
+/// axis (0, 0, 1) must, with the same bits all around the lane.
+#[test]
+fn only_exact_whole_sphere_cones_skip_the_emitter_term() {
+    let lane = |axis: [i16; 3]| {
+        let mut node = WideNode::empty();
+        node.origin = [0.0; 3];
+        node.step = [0.01; 3];
+        node.radius_step = 0.01;
+        for (a, &code) in axis.iter().enumerate() {
+            node.centre[a][0] = 100;
+            node.axis[a][0] = code;
+        }
+        node.radius[0] = 100;
+        node.cos_o[0] = 0;
+        node.cos_e[0] = encode_cos(0.0) as u16;
+        node.phi[0] = encode_phi(1.0, false);
+        node
+    };
+    let exact = lane([0, 0, i16::MAX]);
+    let long = lane([300, 300, i16::MAX]);
+    assert!(Decoded::of(&exact).full_cones);
+    assert!(!Decoded::of(&long).full_cones);
+    let mut rng = Rand::new(31);
+    for node in [exact, long] {
+        let decoded = Decoded::of(&node);
+        let w = Vec3::from_array(std::array::from_fn(|a| decoded.axis[a][0]));
+        let centre = Vec3::ONE;
+        // Just behind the axis (cos θw at its most negative), then all around.
+        let mut receivers = vec![(centre - 5.0 * w.normalize(), w.normalize())];
+        receivers.extend((0..200).map(|_| {
+            let p = centre + 6.0 * rng.unit();
+            (p, (centre - p).normalize())
+        }));
+        for (p, n) in receivers {
+            let coded = importances(&node, p, n, &Lobe::NONE, None, DEFAULT_FAR_SIN);
+            let kept = decoded_importances(&decoded, p, n, &Lobe::NONE, None, DEFAULT_FAR_SIN);
+            assert_eq!(
+                (coded.importance.map(f32::to_bits), coded.far),
+                (kept.importance.map(f32::to_bits), kept.far),
+                "p {p} axis {w}"
+            );
+        }
+    }
+}
+
 #[test]
 fn lane_importance_matches_the_bound_written_with_angles() {
     let mut rng = Rand::new(10);
