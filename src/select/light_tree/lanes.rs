@@ -176,6 +176,19 @@ fn cofunction(c: f32) -> f32 {
     }
 }
 
+/// √(d² − a²)/d from d² and 1/d, for |a| ≤ d (0 beyond): the sine of the angle whose cosine is
+/// a/d, or the cosine of the one whose sine is. Its square root waits only for d², as 1/d's does,
+/// instead of for 1/d (`cofunction` of a/d).
+#[inline(always)]
+fn leg(dist_sq: f32, a: f32, inv_dist: f32) -> f32 {
+    let square = (-a).mul_add(a, dist_sq);
+    if square > 0.0 {
+        square.sqrt() * inv_dist
+    } else {
+        0.0
+    }
+}
+
 /// a · b with fused multiply-adds (correctly rounded on every CPU, so the bits do not depend
 /// on which copy of the walk runs).
 #[inline(always)]
@@ -501,15 +514,16 @@ fn lane<const GLOSSY: bool, const RECEIVER: bool, const FULL_CONES: bool>(
     let inv_dist = 1.0 / dist_sq.sqrt();
     let sin_b = radius * inv_dist;
     let sin_b = if sin_b < 1.0 { sin_b } else { 1.0 };
-    let cos_b = cofunction(sin_b);
+    let cos_b = leg(dist_sq, radius, inv_dist);
     let sin_s = SHARP_RADIUS * radius * inv_dist;
     let sin_s = if sin_s < 1.0 { sin_s } else { 1.0 };
-    let cos_s = cofunction(sin_s);
+    let cos_s = leg(dist_sq, SHARP_RADIUS * radius, inv_dist);
 
     // θw − θo − θ as θw − (θo + θ): the sums wait only for the distance, so the chain from
     // the cone axis's cosine to the importance is one subtraction of angles long. Both dot
     // products are taken with p − c and then scaled by 1/d, so they wait for the square root
-    // only at the end.
+    // only at the end; each sine or cosine made from another is a `leg`, whose root runs beside
+    // 1/d's (render CPU 0.980 / 0.973 on the Lambert 50k city / town, the same MSE).
     let signed_phi = node.signed_phi;
     let phi = signed_phi.abs();
     let cos_o = node.cos_o;
@@ -521,9 +535,10 @@ fn lane<const GLOSSY: bool, const RECEIVER: bool, const FULL_CONES: bool>(
         (1.0, false)
     } else {
         let axis = node.axis;
-        let cos_w = dot(axis, to_p) * inv_dist;
-        let cos_w = if signed_phi < 0.0 { cos_w.abs() } else { cos_w };
-        let sin_w = cofunction(cos_w);
+        let along = dot(axis, to_p);
+        let along = if signed_phi < 0.0 { along.abs() } else { along };
+        let cos_w = along * inv_dist;
+        let sin_w = leg(dist_sq, along, inv_dist);
         let sin_o = cofunction(cos_o);
         let (cos_ob, sin_ob) = plus(cos_o, sin_o, cos_b, sin_b);
         let (cos_os, sin_os) = plus(cos_o, sin_o, cos_s, sin_s);
@@ -537,12 +552,12 @@ fn lane<const GLOSSY: bool, const RECEIVER: bool, const FULL_CONES: bool>(
 
     // Without a receiver cos θi is taken as 1: then θr = 0, so the receiver rejects nothing and
     // R is 1 exactly (cos θb, cos θs ≤ 1).
-    let cos_i = if RECEIVER {
-        -dot(to_p, n.to_array()) * inv_dist
+    let (cos_i, sin_i) = if RECEIVER {
+        let along = -dot(to_p, n.to_array());
+        (along * inv_dist, leg(dist_sq, along, inv_dist))
     } else {
-        1.0
+        (1.0, 0.0)
     };
-    let sin_i = cofunction(cos_i);
     let (cos_r, _) = minus(cos_i, sin_i, cos_b, sin_b);
     let receiver_rejects = cos_r <= -COS_SLACK;
     let (cos_r_sharp, _) = minus(cos_i, sin_i, cos_s, sin_s);
@@ -572,8 +587,8 @@ fn lane<const GLOSSY: bool, const RECEIVER: bool, const FULL_CONES: bool>(
     // The lobe factor (`Lobe`); a NaN cosine (p at the centre) gives t = 1.
     let value = if GLOSSY {
         let r = lobe.r;
-        let cos_m = -dot(to_p, r.to_array()) * inv_dist;
-        let sin_m = cofunction(cos_m);
+        let along = -dot(to_p, r.to_array());
+        let (cos_m, sin_m) = (along * inv_dist, leg(dist_sq, along, inv_dist));
         let (cos_g, _) = minus(cos_m, sin_m, cos_b, sin_b);
         let t = max(lobe.sharpness.mul_add(1.0 - cos_g, 1.0), 1.0);
         value * (1.0 + lobe.gain / (t * t))
