@@ -513,8 +513,13 @@ fn lane<const GLOSSY: bool, const RECEIVER: bool, const FULL_CONES: bool>(
     let radius_sq = radius * radius;
     let inv_dist = 1.0 / dist_sq.sqrt();
     let sin_b = radius * inv_dist;
+    // θb = 90° wherever sin θb rounds to 1, as its clamp says (d² may still exceed r² by an ulp).
+    let cos_b = if sin_b < 1.0 {
+        leg(dist_sq, radius, inv_dist)
+    } else {
+        0.0
+    };
     let sin_b = if sin_b < 1.0 { sin_b } else { 1.0 };
-    let cos_b = leg(dist_sq, radius, inv_dist);
     let sin_s = SHARP_RADIUS * radius * inv_dist;
     let sin_s = if sin_s < 1.0 { sin_s } else { 1.0 };
     let cos_s = leg(dist_sq, SHARP_RADIUS * radius, inv_dist);

@@ -1,7 +1,8 @@
 //! The specular lobe factor: the pmf keeps exactly the support of the diffuse importance (of a
 //! walk that descends every lane; the diffuse walk, which chooses inside far lanes by power, has
 //! a support at least as large), `sample_with` and `pmf_with` agree bit for bit and sum to the
-//! reachable mass, and a light in the lobe gains probability.
+//! reachable mass, a light in the lobe gains probability, and each lane's factor is the one
+//! written with angles.
 
 use super::*;
 
@@ -67,4 +68,57 @@ fn a_light_in_the_lobe_gains_probability() {
     let (plain, glossy) = (bvh.pmf(p, n, right), bvh.pmf_with(p, n, lobe, right));
     assert!((plain - 0.5).abs() < 1e-6, "{plain}");
     assert!(glossy > 0.9 && glossy < 1.0, "{glossy}");
+}
+
+/// The lobe factor (glossy / plain importance of a lane) against 1 + g/(1 + λ(1 − cos θm))²
+/// written with angles in f64, θm = max(0, ∠(r, c − p) − θb), r read as it is.
+#[test]
+fn lane_lobe_factor_matches_the_factor_written_with_angles() {
+    let mut rng = Rand::new(41);
+    let scene = random_scene(&mut rng, 2000);
+    let (bvh, _) = LightBvh::build(&scene.bounds);
+    let mut compared = 0;
+    for (p, n) in receivers(&mut rng, &scene, 300) {
+        if n == Vec3::ZERO {
+            continue;
+        }
+        let lobe = random_lobe(&mut rng, n);
+        for node in &bvh.nodes {
+            let plain = importances(node, p, n, &Lobe::NONE, None, 0.0).importance;
+            let glossy = importances(node, p, n, &lobe, None, 0.0).importance;
+            let decoded = Decoded::of(node);
+            for k in (0..LANES).filter(|&k| node.first[k] != EMPTY_LANE) {
+                let (a, b) = (f64::from(plain[k]), f64::from(glossy[k]));
+                // Away from the clamps of the importance.
+                if !(a > 1e-30 && b < 1e30) {
+                    continue;
+                }
+                let c = DVec3::from_array(decoded.centre.map(|c| f64::from(c[k])));
+                let (to_c, r) = (c - p.as_dvec3(), f64::from(decoded.radius[k]));
+                let d = to_c.length();
+                if (d - r).abs() < 1e-3 * r {
+                    continue;
+                }
+                let theta_b = if d > r {
+                    (r / d).asin()
+                } else {
+                    std::f64::consts::FRAC_PI_2
+                };
+                let cos_m = lobe.r.as_dvec3().dot(to_c) / d;
+                let theta_m = (cos_m.clamp(-1.0, 1.0).acos() - theta_b).max(0.0);
+                let t = 1.0 + f64::from(lobe.sharpness) * (1.0 - theta_m.cos());
+                let expected = 1.0 + f64::from(lobe.gain) / (t * t);
+                // An error of δ in cos θm moves the factor by at most 2λδ/t of itself.
+                let slack = 1e-4 + 2.0 * f64::from(lobe.sharpness) * 1e-5 / t;
+                assert!(
+                    ((b / a) / expected - 1.0).abs() <= slack,
+                    "lane {k} p {p}: factor {} vs {expected} {lobe:?}",
+                    b / a
+                );
+                compared += 1;
+            }
+        }
+    }
+    println!("{compared} lobe factors compared");
+    assert!(compared > 1000, "{compared}");
 }
