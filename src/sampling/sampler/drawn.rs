@@ -57,7 +57,7 @@ mod lanes {
     use super::super::hash_avx2::hashes;
     use super::super::independent::halves;
     use super::super::packet::lanes::{
-        bsdf_lanes, group_seeds, indices, low_words, seeds, sobol_fits, unit_pairs,
+        bsdf_lanes, group_seeds, indices, low_words, point_pairs, seeds, sobol_fits, unit_pairs,
     };
     use super::super::sobol_avx2::{bits, load, sample_2d, sample_3d, units};
     use super::*;
@@ -109,15 +109,15 @@ mod lanes {
         let [jx, jy] = sample_2d(all, &pixel);
         let [lx, ly, lz] = sample_3d(all, &light);
         let [bx, by, bz] = sample_3d(all, &bsdf);
-        let (jitter, point) = ([units(jx), units(jy)], [units(lx), units(ly)]);
+        let (jitter, point) = (point_pairs(jx, jy), point_pairs(lx, ly));
         let choice = bits(lz);
         let bsdf = bsdf_lanes(&units(bz), &units(bx), &units(by));
         for (lane, cs) in samples.iter_mut().enumerate() {
             let seed = cs.pixel.seeds[LIGHT_POINT as usize];
             cs.source = Source::Drawn(Drawn {
-                jitter: jitter.map(|c| c[lane]),
+                jitter: jitter[lane],
                 light_choice: with_hashed_bits(choice[lane], seed, camera[lane]),
-                light_point: point.map(|c| c[lane]),
+                light_point: point[lane],
                 bsdf: bsdf[lane],
             });
         }

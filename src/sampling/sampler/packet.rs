@@ -149,7 +149,7 @@ pub(super) unsafe fn draw_slots<'a>(
 /// The lane helpers of the draws, here and in `drawn`.
 #[cfg(target_arch = "x86_64")]
 pub(super) mod lanes {
-    use std::arch::x86_64::{_mm256_add_epi32, _mm256_mullo_epi32, _mm256_set1_epi32};
+    use std::arch::x86_64::{__m256i, _mm256_add_epi32, _mm256_mullo_epi32, _mm256_set1_epi32};
 
     use super::super::hash_avx2::hashes;
     use super::super::independent::halves;
@@ -187,6 +187,17 @@ pub(super) mod lanes {
             [x[lane], y[lane]] = halves(hashes[lane]).map(to_f32);
         }
         (x, y)
+    }
+
+    /// Each lane's 2D point in [0, 1)² from the two coordinates' reversed bits (`units`).
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(in super::super) unsafe fn point_pairs(x: __m256i, y: __m256i) -> [[f32; 2]; LANES] {
+        let (x, y) = (units(x), units(y));
+        std::array::from_fn(|lane| [x[lane], y[lane]])
     }
 
     /// The low 32 bits of each lane's index (the Sobol lanes' indices, below 2^32: `sobol_fits`).
@@ -309,8 +320,7 @@ pub(super) mod lanes {
         let [pixel, light, bsdf, choice_group] =
             group_seeds(samples, [PIXEL, LIGHT_POINT, BSDF_DIRECTION, LIGHT_CHOICE]);
         let [jx, jy] = sample_2d(at(1, 0), &pixel);
-        let (jx, jy) = (units(jx), units(jy));
-        numbers.jitter = std::array::from_fn(|lane| [jx[lane], jy[lane]]);
+        numbers.jitter = point_pairs(jx, jy);
         // N = 1: a light's choice is the third coordinate of the point on it; else dimension
         // 2's own one-dimensional point.
         let choice_seed = seeds(samples, if n > 1 { LIGHT_CHOICE } else { LIGHT_POINT });
@@ -319,8 +329,7 @@ pub(super) mod lanes {
                 bits(sample_1d(at(k, slot), &choice_group))
             } else {
                 let [x, y, z] = sample_3d(at(k, slot), &light);
-                let (x, y) = (units(x), units(y));
-                numbers.light_point[slot] = std::array::from_fn(|lane| [x[lane], y[lane]]);
+                numbers.light_point[slot] = point_pairs(x, y);
                 bits(z)
             };
             numbers.light_choice[slot] = std::array::from_fn(|lane| {
@@ -331,8 +340,7 @@ pub(super) mod lanes {
         if n > 1 {
             for slot in 0..kn {
                 let [x, y] = sample_2d(at(kn, slot), &light);
-                let (x, y) = (units(x), units(y));
-                numbers.light_point[slot] = std::array::from_fn(|lane| [x[lane], y[lane]]);
+                numbers.light_point[slot] = point_pairs(x, y);
             }
         }
         for j in 0..kn {
