@@ -20,8 +20,8 @@
 //! cosines are 1 too. The zero test is pbrt's, on the whole sphere: 0 when
 //! θp(θb) ≥ θe or θr(θb) ≥ 90° (never inside), so a child that can reach p's
 //! upper hemisphere always gets a positive importance. Angles are combined
-//! through their (cos, sin) pairs; cosines near a threshold get a margin of
-//! `COS_SLACK` so f32 rounding never rejects a child that can reach the
+//! through their (cos, sin) pairs; the zero test's cosines get a margin of
+//! `REJECT_SLACK`, so f32 rounding never rejects a child that can reach the
 //! receiver. Positive results lie in [f32::MIN_POSITIVE, f32::MAX]; unused
 //! lanes give 0. Chosen by measuring the choice against the oracle (`cargo
 //! bench --bench selection_quality`, W²-weighted χ²: on the 50k city 6.7 with
@@ -226,7 +226,7 @@ fn plus(cos_a: f32, sin_a: f32, cos_b: f32, sin_b: f32) -> (f32, f32) {
 
 /// One weighted cosine (E or R in the module header): `cos_sharp` over the quarter sphere
 /// (1 inside it), at least β·`cos_whole` (pbrt's, over the whole sphere) outside the whole
-/// sphere and `INSIDE_FLOOR` inside it, and at least `COS_SLACK`.
+/// sphere and `INSIDE_FLOOR` inside it, and at least `COS_FLOOR`.
 #[inline(always)]
 fn weighted(cos_sharp: f32, cos_whole: f32, outside_sharp: bool, outside: bool) -> f32 {
     let sharp = if outside_sharp { cos_sharp } else { 1.0 };
@@ -235,7 +235,7 @@ fn weighted(cos_sharp: f32, cos_whole: f32, outside_sharp: bool, outside: bool) 
     } else {
         INSIDE_FLOOR
     };
-    max(max(sharp, floor), COS_SLACK)
+    max(max(sharp, floor), COS_FLOOR)
 }
 
 /// A node's lanes at a receiver: each lane's importance, and the mask of its far lanes (bit k
@@ -551,7 +551,7 @@ fn lane<const GLOSSY: bool, const RECEIVER: bool, const FULL_CONES: bool>(
         let (cos_p_sharp, _) = minus(cos_w, sin_w, cos_os, sin_os);
         (
             weighted(cos_p_sharp, cos_p, outside_sharp, outside),
-            cos_p <= node.cos_e - COS_SLACK,
+            cos_p <= node.cos_e - REJECT_SLACK,
         )
     };
 
@@ -564,7 +564,7 @@ fn lane<const GLOSSY: bool, const RECEIVER: bool, const FULL_CONES: bool>(
         (1.0, 0.0)
     };
     let (cos_r, _) = minus(cos_i, sin_i, cos_b, sin_b);
-    let receiver_rejects = cos_r <= -COS_SLACK;
+    let receiver_rejects = cos_r <= -REJECT_SLACK;
     let (cos_r_sharp, _) = minus(cos_i, sin_i, cos_s, sin_s);
     let received = weighted(cos_r_sharp, cos_r, outside_sharp, outside);
 

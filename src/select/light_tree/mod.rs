@@ -80,9 +80,19 @@ use bounds::*;
 pub use lanes::{Lobe, DEFAULT_FAR_SIN};
 pub use traverse::{BinaryTree, LightBvh, RootImportances};
 
-/// Absolute tolerance on the cosines compared in the importance, larger than the
-/// f32 rounding of those cosines: a node is only rejected with this margin.
-const COS_SLACK: f32 = 2e-6;
+/// The least value of the importance's weighted cosines (`lanes::weighted`), so that a lane
+/// the zero test keeps is never 0.
+const COS_FLOOR: f32 = 2e-6;
+/// Margin of the zero test's cosines (`lanes::lane`): a lane is rejected only where its
+/// cosine lies this far beyond the threshold. A sine or cosine the lanes take as a leg,
+/// √(d² − a²)/d, loses up to √(10ε) ≈ 1.1e-3 (ε = 2⁻²³) where it is near 0, d² and the dot
+/// product a each rounded; the emitter's test combines three such (sin θw, cos θb, sin θo) and
+/// the receiver's two (sin θi, cos θb), so at the threshold the f32 cosine may understate the
+/// exact one by about 3.3e-3. A receiver that f32 puts just outside a sphere it lies inside
+/// is still outside the lane's lights (`bounding_radius` leaves a margin of several ε), where
+/// the bound holds. The lights of a lane kept within the margin reach the receiver at most at
+/// a grazing angle; the lane keeps the floor `COS_FLOOR`.
+const REJECT_SLACK: f32 = 4e-3;
 /// Angle (radians) added to every cone that is merged or quantised here, larger
 /// than the rounding of the f64 computation and of the f32 axis it yields.
 const ANGLE_SLACK: f64 = 1e-6;

@@ -179,11 +179,11 @@ fn importance_with_angles(
         emitted = emitted.max(inside_floor);
         received = received.max(inside_floor);
     }
-    emitted = emitted.max(f64::from(COS_SLACK));
+    emitted = emitted.max(f64::from(COS_FLOOR));
     received = if n == DVec3::ZERO {
         1.0
     } else {
-        received.max(f64::from(COS_SLACK))
+        received.max(f64::from(COS_FLOOR))
     };
     let spread_sq = f64::from(spread_sq);
     let d_sq = (p.distance_squared(power_centre.as_dvec3()) - 1.5 * spread_sq)

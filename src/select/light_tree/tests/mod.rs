@@ -22,6 +22,14 @@ impl Rand {
     pub(super) fn range(&mut self, lo: f32, hi: f32) -> f32 {
         lo + (hi - lo) * self.f32()
     }
+    /// −1 or 1.
+    pub(super) fn sign(&mut self) -> f64 {
+        if self.0.next_u32() & 1 == 0 {
+            -1.0
+        } else {
+            1.0
+        }
+    }
     pub(super) fn below(&mut self, n: usize) -> usize {
         ((self.f64() * n as f64) as usize).min(n - 1)
     }
@@ -315,3 +323,4 @@ mod lobe;
 mod near_field;
 mod pairs;
 mod sampling;
+mod thresholds;
