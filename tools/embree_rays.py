@@ -13,6 +13,12 @@ rtcIntersect1 / rtcOccluded1). Embree's time is the calling thread's CPU time, m
 repeats. Ours is read from criterion's estimates (median time per pass over the same set) of the
 last `cargo bench --bench rays` run, so run the two one after the other on a quiet machine.
 Needs numpy and embreex (pip install embreex).
+
+With --mitsuba the same rays also go through Mitsuba 3 (pip install mitsuba), the renderer the
+peers' harness compares us with: its llvm_ad_rgb variant traces them with its Embree 3 in the
+JIT's SIMD-wide packets (`Scene.ray_intersect_preliminary`, `Scene.ray_test`) on one worker
+thread, each set repeated to at least a million rays per launch; its time is the process's CPU
+time, median of the repeats.
 """
 
 import argparse
@@ -53,6 +59,50 @@ def embree_rays_per_s(scene, rays, occlusion, repeats):
     return len(rays) / statistics.median(times), count
 
 
+class MitsubaScene:
+    """The triangles as one Mitsuba mesh, traced by Mitsuba's llvm variant on one thread."""
+
+    def __init__(self, tris):
+        import drjit as dr
+        import mitsuba as mi
+        mi.set_variant("llvm_ad_rgb")
+        dr.set_thread_count(1)
+        self.dr, self.mi = dr, mi
+        n = len(tris)
+        mesh = mi.Mesh("triangles", vertex_count=3 * n, face_count=n)
+        params = mi.traverse(mesh)
+        params["vertex_positions"] = mi.Float(np.ascontiguousarray(tris, dtype=np.float32).ravel())
+        params["faces"] = mi.UInt32(np.arange(3 * n, dtype=np.uint32))
+        params.update()
+        self.scene = mi.load_dict({"type": "scene", "triangles": mesh})
+
+    def rays_per_s(self, rays, occlusion, repeats):
+        dr, mi = self.dr, self.mi
+        copies = max(1, -(-1_000_000 // len(rays)))
+        rays = np.tile(rays, (copies, 1))
+        # Mitsuba's rays take a finite maxt; closest-hit sets hold +inf.
+        tmax = np.where(np.isfinite(rays[:, 6]), rays[:, 6], np.float32(3e38)).astype(np.float32)
+        column = lambda k: mi.Float(np.ascontiguousarray(rays[:, k]))  # noqa: E731
+        ray = mi.Ray3f(mi.Point3f(column(0), column(1), column(2)),
+                       mi.Vector3f(column(3), column(4), column(5)), mi.Float(tmax), 0.0,
+                       mi.Color0f())
+
+        def trace():
+            found = self.scene.ray_test(ray) if occlusion else self.scene.ray_intersect_preliminary(ray).t
+            dr.eval(found)
+            return found
+
+        trace()  # compiles the kernel, untimed
+        times = []
+        for _ in range(repeats):
+            start = time.process_time()
+            found = trace()
+            times.append(time.process_time() - start)
+        found = np.array(found)
+        hits = int(np.count_nonzero(found)) if occlusion else int(np.count_nonzero(found < 1e38))
+        return len(rays) / statistics.median(times), hits // copies
+
+
 def ours_rays_per_s(criterion_dir, scene_name, set_name, n):
     estimates = criterion_dir / scene_name / set_name / "new" / "estimates.json"
     if not estimates.is_file():
@@ -67,17 +117,21 @@ def main():
     parser.add_argument("--criterion", type=Path, default=Path("target/criterion"),
                         help="criterion's output folder (default: target/criterion)")
     parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--mitsuba", action="store_true",
+                        help="also trace the rays with Mitsuba 3's llvm variant (pip install mitsuba)")
     args = parser.parse_args()
 
     scenes = sorted(p for p in args.dump.iterdir() if (p / "triangles.bin").is_file())
     if not scenes:
         sys.exit(f"{args.dump}: no <scene>/triangles.bin (run the bench with MANYLIGHTS_DUMP_RAYS)")
+    mitsuba_head = f" {'Mitsuba Mrays/s':>16} {'ours/Mitsuba':>13}" if args.mitsuba else ""
     print(f"{'scene':<10} {'set':<16} {'rays':>8} {'hits':>8} {'Embree Mrays/s':>15} "
-          f"{'ours Mrays/s':>13} {'ours/Embree':>12}")
+          f"{'ours Mrays/s':>13} {'ours/Embree':>12}{mitsuba_head}")
     for folder in scenes:
         tris = load_f32(folder / "triangles.bin", 9).reshape(-1, 3, 3)
         scene = rtcore_scene.EmbreeScene()
         TriangleMesh(scene, np.ascontiguousarray(tris))
+        mitsuba = MitsubaScene(tris) if args.mitsuba else None
         for set_path in sorted(folder.glob("*.bin")):
             if set_path.name == "triangles.bin":
                 continue
@@ -86,13 +140,22 @@ def main():
             embree, count = embree_rays_per_s(scene, rays, occlusion, args.repeats)
             ours = ours_rays_per_s(args.criterion, folder.name, set_path.stem, len(rays))
             ours_text = f"{ours / 1e6:13.2f} {ours / embree:12.2f}" if ours else f"{'-':>13} {'-':>12}"
+            mitsuba_text, rate = "", None
+            if mitsuba:
+                rate, hits = mitsuba.rays_per_s(rays, occlusion, args.repeats)
+                if hits != count:
+                    print(f"note: {folder.name} {set_path.stem}: Mitsuba found {hits} hits, Embree {count}")
+                ratio = f"{ours / rate:13.2f}" if ours else f"{'-':>13}"
+                mitsuba_text = f" {rate / 1e6:16.2f} {ratio}"
             print(f"{folder.name:<10} {set_path.stem:<16} {len(rays):>8} {count:>8} "
-                  f"{embree / 1e6:15.2f} {ours_text}")
+                  f"{embree / 1e6:15.2f} {ours_text}{mitsuba_text}")
             # The same rays traced by us in packets (a pixel's rays in one walk), if benched.
             packets = ours_rays_per_s(args.criterion, folder.name, set_path.stem + "_packets", len(rays))
             if packets:
+                mitsuba_text = f" {rate / 1e6:16.2f} {packets / rate:13.2f}" if rate else ""
                 print(f"{folder.name:<10} {'  in packets':<16} {len(rays):>8} {count:>8} "
-                      f"{embree / 1e6:15.2f} {packets / 1e6:13.2f} {packets / embree:12.2f}")
+                      f"{embree / 1e6:15.2f} {packets / 1e6:13.2f} {packets / embree:12.2f}"
+                      f"{mitsuba_text}")
 
 
 if __name__ == "__main__":
