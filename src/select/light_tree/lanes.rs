@@ -20,8 +20,8 @@
 //! cosines are 1 too. The zero test is pbrt's, on the whole sphere: 0 when
 //! θp(θb) ≥ θe or θr(θb) ≥ 90° (never inside), so a child that can reach p's
 //! upper hemisphere always gets a positive importance. Angles are combined
-//! through their (cos, sin) pairs; the zero test's cosines get a margin of
-//! `REJECT_SLACK`, so f32 rounding never rejects a child that can reach the
+//! through their (cos, sin) pairs; the zero test's angles get a margin of
+//! `REJECT_ANGLE`, so f32 rounding never rejects a child that can reach the
 //! receiver. Positive results lie in [f32::MIN_POSITIVE, f32::MAX]; unused
 //! lanes give 0. Chosen by measuring the choice against the oracle (`cargo
 //! bench --bench selection_quality`, W²-weighted χ²: on the 50k city 6.7 with
@@ -551,7 +551,8 @@ fn lane<const GLOSSY: bool, const RECEIVER: bool, const FULL_CONES: bool>(
         let (cos_p_sharp, _) = minus(cos_w, sin_w, cos_os, sin_os);
         (
             weighted(cos_p_sharp, cos_p, outside_sharp, outside),
-            cos_p <= node.cos_e - REJECT_SLACK,
+            // θe is coded widened by `REJECT_ANGLE`.
+            cos_p <= node.cos_e,
         )
     };
 
@@ -564,7 +565,7 @@ fn lane<const GLOSSY: bool, const RECEIVER: bool, const FULL_CONES: bool>(
         (1.0, 0.0)
     };
     let (cos_r, _) = minus(cos_i, sin_i, cos_b, sin_b);
-    let receiver_rejects = cos_r <= -REJECT_SLACK;
+    let receiver_rejects = cos_r <= -REJECT_ANGLE;
     let (cos_r_sharp, _) = minus(cos_i, sin_i, cos_s, sin_s);
     let received = weighted(cos_r_sharp, cos_r, outside_sharp, outside);
 

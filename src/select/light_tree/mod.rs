@@ -80,19 +80,24 @@ use bounds::*;
 pub use lanes::{Lobe, DEFAULT_FAR_SIN};
 pub use traverse::{BinaryTree, LightBvh, RootImportances};
 
-/// The least value of the importance's weighted cosines (`lanes::weighted`), so that a lane
-/// the zero test keeps is never 0.
+/// The least value of the importance's weighted cosines (`lanes::weighted`): E · R stays
+/// above 4e-12 where the zero test keeps a lane (the lane's value is then held at least at
+/// `f32::MIN_POSITIVE`).
 const COS_FLOOR: f32 = 2e-6;
-/// Margin of the zero test's cosines (`lanes::lane`): a lane is rejected only where its
-/// cosine lies this far beyond the threshold. A sine or cosine the lanes take as a leg,
-/// √(d² − a²)/d, loses up to √(10ε) ≈ 1.1e-3 (ε = 2⁻²³) where it is near 0, d² and the dot
-/// product a each rounded; the emitter's test combines three such (sin θw, cos θb, sin θo) and
-/// the receiver's two (sin θi, cos θb), so at the threshold the f32 cosine may understate the
-/// exact one by about 3.3e-3. A receiver that f32 puts just outside a sphere it lies inside
-/// is still outside the lane's lights (`bounding_radius` leaves a margin of several ε), where
-/// the bound holds. The lights of a lane kept within the margin reach the receiver at most at
-/// a grazing angle; the lane keeps the floor `COS_FLOOR`.
-const REJECT_SLACK: f32 = 4e-3;
+/// Margin of the zero test (`lanes::lane`), as an angle (radians): a lane is rejected only
+/// where the bound's angle lies this far beyond its threshold. The emitter's θe is widened by it
+/// when a lane is coded (`WideNode::new`), the receiver's test rejects only where cos θr ≤ −this
+/// (below −sin of it). A sine or cosine the lanes take as a leg, √(d² − a²)/d, loses up to
+/// √(10ε) ≈ 1.1e-3 (ε = 2⁻²³) where it is near 0, d², the dot product a and p − c each rounded,
+/// for a unit normal n (the callers' receivers are normalised); the emitter's test combines two
+/// such (sin θw, cos θb) and the receiver's two (sin θi, cos θb), so the f32 angle may overstate
+/// the exact one by about 2.2e-3 at a threshold. (The coded axis's length, up to 1.5e-5 off 1,
+/// would cost sin θw up to 5.5e-3: θo is widened for it when it is coded, `encode_axis`.) A
+/// receiver that f32 puts just outside a sphere it lies inside is still outside the lane's
+/// lights, which lie within r/(1 + 4ε) of its centre (`bounding_radius` enlarges the box's half
+/// diagonal by 8ε and the codes round the radius up; `wide_lanes_hold_their_lights` checks the
+/// margin, as the centre's move to the node's grid eats into it), where the bound holds.
+const REJECT_ANGLE: f32 = 4e-3;
 /// Angle (radians) added to every cone that is merged or quantised here, larger
 /// than the rounding of the f64 computation and of the f32 axis it yields.
 const ANGLE_SLACK: f64 = 1e-6;

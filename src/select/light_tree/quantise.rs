@@ -77,6 +77,12 @@ impl Grid {
     }
 }
 
+/// cos(min(π, θ + `angle`)) for cos θ = `cos`: a cone widened by `angle` radians.
+pub(super) fn widened(cos: f32, angle: f32) -> f64 {
+    let theta = f64::from(cos).clamp(-1.0, 1.0).acos() + f64::from(angle);
+    theta.min(std::f64::consts::PI).cos()
+}
+
 /// 15-bit cosine code → cosine in [−1, 1].
 pub(super) fn decode_cos(q: u32) -> f32 {
     q as f32 * (2.0 / COS_MAX as f32) - 1.0

@@ -156,7 +156,9 @@ impl LightBvh {
     }
 
     /// The root's lane importances at (p, n, lobe), or `None` where no light in the
-    /// tree can reach the receiver. A caller that must know this before it
+    /// tree can reach the receiver. Here as in `sample` and `pmf`, `n` is the receiver's unit
+    /// normal (to a few ulps: the zero test's margin, `REJECT_ANGLE`, counts on it) or zero for
+    /// none. A caller that must know this before it
     /// chooses passes the answer on to [`sample_below_with`](Self::sample_below_with),
     /// which then does not evaluate the root again.
     pub fn root_with(&self, p: Vec3, n: Vec3, lobe: Lobe) -> Option<RootImportances> {

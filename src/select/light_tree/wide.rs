@@ -58,8 +58,9 @@ pub(super) const EMPTY_LANE: u32 = u32::MAX;
 /// a grid over the node's centres (16 bits an axis) and its radius as a 16-bit multiple of
 /// `radius_step`, both rounded so the sphere still holds the child's box; the cone axis as three
 /// 16-bit fractions of 1 (of the eight codes around it, the one of length nearest 1:
-/// [`encode_axis`]), θo widened by the coding error; cosines as [`encode_cos`] codes rounded down
-/// (every rounding enlarges the bound).
+/// [`encode_axis`]), θo widened by the coding error; θe widened by the zero test's margin
+/// (`REJECT_ANGLE`); cosines as [`encode_cos`] codes rounded down (every rounding enlarges the
+/// bound).
 #[repr(C, align(64))]
 #[derive(Clone, Copy, Debug)]
 pub(super) struct WideNode {
@@ -184,7 +185,7 @@ impl WideNode {
                 field[k] = code;
             }
             node.cos_o[k] = cos_o as u16;
-            node.cos_e[k] = encode_cos(f64::from(b.cos_theta_e)) as u16;
+            node.cos_e[k] = encode_cos(widened(b.cos_theta_e, REJECT_ANGLE)) as u16;
             node.phi[k] = encode_phi(b.phi, b.two_sided);
             node.first[k] = lane.first as u32;
             if !is_unit(binary, lane.index) {
