@@ -17,8 +17,8 @@ Needs numpy and embreex (pip install embreex).
 With --mitsuba the same rays also go through Mitsuba 3 (pip install mitsuba), the renderer the
 peers' harness compares us with: its llvm_ad_rgb variant traces them with its Embree 3 in the
 JIT's SIMD-wide packets (`Scene.ray_intersect_preliminary`, `Scene.ray_test`) on one worker
-thread, each set repeated to at least a million rays per launch; its time is the process's CPU
-time, median of the repeats.
+thread, camera rays with the `coherent` hint its integrators give them, each set repeated to at
+least a million rays per launch; its time is the process's CPU time, median of the repeats.
 """
 
 import argparse
@@ -59,6 +59,12 @@ def embree_rays_per_s(scene, rays, occlusion, repeats):
     return len(rays) / statistics.median(times), count
 
 
+# The sets of camera rays, which Mitsuba's integrators trace with `coherent=True` (a hint its
+# llvm variant passes to Embree); the others are traced without it, as its integrators trace
+# bounce and shadow rays.
+COHERENT_SETS = {"camera_closest", "pixel_closest"}
+
+
 class MitsubaScene:
     """The triangles as one Mitsuba mesh, traced by Mitsuba's llvm variant on one thread."""
 
@@ -76,7 +82,7 @@ class MitsubaScene:
         params.update()
         self.scene = mi.load_dict({"type": "scene", "triangles": mesh})
 
-    def rays_per_s(self, rays, occlusion, repeats):
+    def rays_per_s(self, rays, occlusion, coherent, repeats):
         dr, mi = self.dr, self.mi
         copies = max(1, -(-1_000_000 // len(rays)))
         rays = np.tile(rays, (copies, 1))
@@ -88,7 +94,10 @@ class MitsubaScene:
                        mi.Color0f())
 
         def trace():
-            found = self.scene.ray_test(ray) if occlusion else self.scene.ray_intersect_preliminary(ray).t
+            if occlusion:
+                found = self.scene.ray_test(ray, coherent=coherent)
+            else:
+                found = self.scene.ray_intersect_preliminary(ray, coherent=coherent).t
             dr.eval(found)
             return found
 
@@ -142,7 +151,9 @@ def main():
             ours_text = f"{ours / 1e6:13.2f} {ours / embree:12.2f}" if ours else f"{'-':>13} {'-':>12}"
             mitsuba_text, rate = "", None
             if mitsuba:
-                rate, hits = mitsuba.rays_per_s(rays, occlusion, args.repeats)
+                # Camera rays as Mitsuba's integrators trace them: with its coherence hint.
+                coherent = set_path.stem in COHERENT_SETS
+                rate, hits = mitsuba.rays_per_s(rays, occlusion, coherent, args.repeats)
                 if hits != count:
                     print(f"note: {folder.name} {set_path.stem}: Mitsuba found {hits} hits, Embree {count}")
                 ratio = f"{ours / rate:13.2f}" if ours else f"{'-':>13}"

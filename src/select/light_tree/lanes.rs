@@ -535,7 +535,8 @@ fn lane<const GLOSSY: bool, const RECEIVER: bool, const FULL_CONES: bool>(
     let outside = dist_sq > radius_sq;
     let outside_sharp = dist_sq > SHARP_RADIUS * SHARP_RADIUS * radius_sq;
     // With θo = π both sums θo + θ reach π, so θp = 0 at the whole and the quarter sphere: both
-    // cosines are 1, E is 1 and the emitter rejects nothing (cos θe ≤ 1), whatever the receiver.
+    // cosines are 1, E is 1 and the emitter rejects nothing (θe is coded widened by
+    // `REJECT_ANGLE`, so cos θe < 1), whatever the receiver.
     let (emitted, emitter_rejects) = if FULL_CONES {
         (1.0, false)
     } else {
@@ -551,8 +552,7 @@ fn lane<const GLOSSY: bool, const RECEIVER: bool, const FULL_CONES: bool>(
         let (cos_p_sharp, _) = minus(cos_w, sin_w, cos_os, sin_os);
         (
             weighted(cos_p_sharp, cos_p, outside_sharp, outside),
-            // θe is coded widened by `REJECT_ANGLE`.
-            cos_p <= node.cos_e,
+            cos_p <= node.cos_e, // θe coded widened by `REJECT_ANGLE`
         )
     };
 

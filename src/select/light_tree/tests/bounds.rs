@@ -377,9 +377,13 @@ fn scaled(bounds: &[LightBounds], scale: f32, offset: f32) -> Vec<LightBounds> {
 fn wide_lanes_hold_their_lights() {
     let mut rng = Rand::new(12);
     let mut checked = 0;
+    let mut singles = 0;
     for (scale, offset) in [(1e-4, 0.0), (1.0, 0.0), (1e6, 0.0), (1.0, 1e6), (1e-4, 1e3)] {
         let scene = random_scene(&mut rng, 3000);
-        let lights = scaled(&scene.bounds, scale, offset);
+        let mut lights = scaled(&scene.bounds, scale, offset);
+        for (i, b) in lights.iter_mut().enumerate() {
+            b.cos_theta_e = [0.0, 1e-3f32.cos(), 0.5, -0.9][i % 4];
+        }
         let (bvh, order) = LightBvh::build(&lights);
         for (id, &original) in order.iter().enumerate() {
             let light = &lights[original as usize];
@@ -424,13 +428,20 @@ fn wide_lanes_hold_their_lights() {
                     // The lane's light, or for a pair lane its first light or the next.
                     let (first, pair) = (child & !LIGHT_LANE, u32::from(node.pairs >> k & 1));
                     assert!((first..=first + pair).contains(&(id as u32)), "light {id}");
+                    if pair == 0 {
+                        // A single light's lane: θe widened by the margin, no more.
+                        let binary = decode_cos(encode_cos(f64::from(light.cos_theta_e)));
+                        let expected = decode_cos(encode_cos(widened(binary, REJECT_ANGLE)));
+                        assert_eq!(lanes.cos_e[k], expected, "light {id} θe");
+                        singles += 1;
+                    }
                     break;
                 }
                 index = child as usize;
             }
         }
     }
-    println!("{checked} lanes checked");
+    println!("{checked} lanes checked, {singles} single lights' θe");
 }
 
 #[test]
