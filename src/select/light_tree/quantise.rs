@@ -77,10 +77,23 @@ impl Grid {
     }
 }
 
+/// (cos, sin) of the angle in [0, π] whose cosine is `c` (clamped to [−1, 1]).
+pub(super) fn cos_sin(c: f64) -> (f64, f64) {
+    let c = c.clamp(-1.0, 1.0);
+    (c, ((1.0 - c) * (1.0 + c)).max(0.0).sqrt())
+}
+
+/// acos(min(|w'|, 1/|w'|)) as a (cos, sin) pair, for a coded axis w' of length `length`: the
+/// most by which the lanes' cos ∠(w', d) for a unit d, computed as w'·d, can overstate or
+/// understate the angle, which the coding adds to θo.
+pub(super) fn stretch(length: f64) -> (f64, f64) {
+    cos_sin(length.min(1.0 / length))
+}
+
 /// cos(min(π, θ + `angle`)) for cos θ = `cos`: a cone widened by `angle` radians.
 pub(super) fn widened(cos: f32, angle: f32) -> f64 {
-    let theta = f64::from(cos).clamp(-1.0, 1.0).acos() + f64::from(angle);
-    theta.min(std::f64::consts::PI).cos()
+    let angle = f64::from(angle);
+    angle_sum(cos_sin(f64::from(cos)), (angle.cos(), angle.sin())).0
 }
 
 /// 15-bit cosine code → cosine in [−1, 1].
@@ -175,16 +188,14 @@ fn code_cone(w: Vec3, cos_o: f32) -> (u32, u32) {
     let code = encode_octahedral(w);
     let (a, b) = (w.as_dvec3().normalize(), decode_octahedral(code).as_dvec3());
     let error = (a.dot(b), a.cross(b).length());
-    let cos_o = f64::from(cos_o).clamp(-1.0, 1.0);
-    let theta = angle_sum((cos_o, ((1.0 - cos_o) * (1.0 + cos_o)).sqrt()), error);
+    let theta = angle_sum(cos_sin(f64::from(cos_o)), error);
     let slack = (1.0 - 0.5 * ANGLE_SLACK * ANGLE_SLACK, ANGLE_SLACK);
     (code, encode_cos(angle_sum(theta, slack).0))
 }
 
 /// The cone (w, cos θo) for a wide node's lane: w as three codes of [`AXIS_STEP`] and the
 /// [`encode_cos`] code of a θo widened by the angle between w and the decoded axis w', and by
-/// acos(min(|w'|, 1/|w'|)), the most by which the lanes' cos ∠(w', d) for a unit d, computed
-/// as w'·d, can overstate or understate the angle. Of the eight codes next to w's (each
+/// its [`stretch`]. Of the eight codes next to w's (each
 /// component rounded down or up), the one with |w'| nearest to 1 is kept, so the lanes'
 /// cosines are barely scaled.
 pub(super) fn encode_axis(w: Vec3, cos_o: f32) -> ([i16; 3], u32) {
@@ -219,11 +230,7 @@ fn code_axis(w: Vec3, cos_o: f32) -> ([i16; 3], u32) {
     let decoded = DVec3::from_array(code.map(|c| f64::from(f32::from(c) * AXIS_STEP)));
     let length = decoded.length();
     let turn = (w.dot(decoded) / length, w.cross(decoded).length() / length);
-    let stretch = length.min(1.0 / length);
-    let stretch = (stretch, ((1.0 - stretch) * (1.0 + stretch)).max(0.0).sqrt());
-    let cos_o = f64::from(cos_o).clamp(-1.0, 1.0);
-    let theta = (cos_o, ((1.0 - cos_o) * (1.0 + cos_o)).sqrt());
-    let theta = angle_sum(angle_sum(theta, turn), stretch);
+    let theta = angle_sum(angle_sum(cos_sin(f64::from(cos_o)), turn), stretch(length));
     let slack = (1.0 - 0.5 * ANGLE_SLACK * ANGLE_SLACK, ANGLE_SLACK);
     (code, encode_cos(angle_sum(theta, slack).0))
 }

@@ -410,11 +410,9 @@ fn wide_lanes_hold_their_lights() {
                 // angle from cos = w'·d, at most acos(min(|w'|, 1/|w'|)) off ∠(w', d)).
                 let axis = DVec3::from_array(lanes.axis.map(|a| f64::from(a[k])));
                 if lanes.cos_o[k] > -1.0 {
-                    let length = axis.length();
-                    let stretch = length.min(1.0 / length).acos();
                     let need = angle_between(axis, light.w.as_dvec3())
                         + f64::from(light.cos_theta_o).acos()
-                        + stretch;
+                        + stretch(axis.length()).0.acos();
                     assert!(need <= f64::from(lanes.cos_o[k]).acos(), "light {id} cone");
                 }
                 // θe widened by the zero test's margin.

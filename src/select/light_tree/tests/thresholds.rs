@@ -42,9 +42,9 @@ impl Exact {
     fn of(decoded: &Decoded, k: usize) -> Exact {
         let at = |field: &[[f32; LANES]; 3]| DVec3::from_array(field.map(|f| f64::from(f[k])));
         let axis = at(&decoded.axis);
-        // The coding widened θo by acos(min(|w'|, 1/|w'|)) for the lanes' use of the unscaled
+        // The coding widened θo by the axis's `stretch` for the lanes' use of the unscaled
         // axis w' (`encode_axis`): that much of θo is theirs, not the lights'.
-        let stretch = axis.length().min(1.0 / axis.length()).acos();
+        let stretch = stretch(axis.length()).0.acos();
         let theta_o = f64::from(decoded.cos_o[k]).clamp(-1.0, 1.0).acos();
         let theta_e = f64::from(decoded.cos_e[k]).clamp(-1.0, 1.0).acos();
         let whole = |theta: f64| theta >= std::f64::consts::PI;
